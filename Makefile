@@ -1,0 +1,24 @@
+# Two entry points for a fresh clone: `make run` (the main job) and `make test`.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+$(BIN)/dacm: pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[test]'
+	touch $(BIN)/dacm
+
+.PHONY: setup run test bench
+setup: $(BIN)/dacm
+
+run: setup
+	$(BIN)/dacm export --preset sample-a --out dacm-out --dxf --stl --json
+	$(BIN)/dacm draw --preset sample-a --out dacm-out/sample-a.png
+
+test: setup
+	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2 --dist loadfile; status=$$?; \
+	if [ $$status -eq 5 ]; then echo "pytest collected no tests: failing"; exit 1; fi; exit $$status
+
+bench: setup
+	for f in tests/benchmarks/*.py; do $(BIN)/python $$f; done

@@ -1,0 +1,55 @@
+"""The ``dacm`` command line: one sub-command per module in :mod:`sensor.commands`.
+
+Each command module exposes ``register(subparsers)``, which adds its parser and sets
+``func(args) -> int``. Errors caused by the user's input (the project's own error classes,
+malformed TOML, files that cannot be read or written) print one line and exit with status 2;
+anything else is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import tomllib
+
+from geometry.errors import GeometryError
+from mri.errors import MriError
+from sensor.errors import SensorError
+
+#: Command modules, in the order ``dacm --help`` lists them.
+COMMANDS = ("export", "check", "draw", "solve", "render", "sweep", "sensor", "snr", "loop")
+
+#: Exceptions that mean "bad input", reported in one line with exit status 2.
+USER_ERRORS = (GeometryError, MriError, SensorError, tomllib.TOMLDecodeError, OSError)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="dacm",
+        description="Design tool for MRI-compatible optical force sensors (DACM bodies).",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in COMMANDS:
+        try:
+            module = importlib.import_module(f"sensor.commands.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"sensor.commands.{name}":
+                raise
+            continue  # command not built yet
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except USER_ERRORS as exc:
+        print(f"dacm {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
