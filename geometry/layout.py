@@ -1,0 +1,161 @@
+"""The reconstructed DACM geometry (DESIGN section 3): key points and the parts of the profile.
+
+Coordinates in mm: x across the width, y up, origin at the bottom centre of the footprint.
+The beam model (:mod:`geometry.topology`), the feasibility rules (:mod:`geometry.checks`)
+and the CAD profile (:mod:`geometry.cad`) are all drawn from this one layout, so they agree.
+
+Left side chain, bottom to top: base hinge (1) at P0 on the base plate, lower link, knee
+hinge (2) at P1 under the knee block, knee block, knee hinge (3) at P2 on top of it, upper
+link, top hinge (4) at P3 under the top plate. The right chain mirrors it (hinges 8, 7, 6,
+5). The middle branch runs from the knee block's inner face K, rising at phi2, to the
+platform's side face Q (hinges 9 and 10 on the left, 12 and 11 on the right).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from geometry.params import Design
+
+
+@dataclass(frozen=True)
+class Part:
+    """One piece of the profile: a convex polygon (counter-clockwise, mm).
+
+    ``kind`` is "plate", "block", "platform", "post", "link" or "hinge"; ``body`` names the
+    rigid body a plate/block belongs to, or the member a link/hinge stands for; ``hinge`` is
+    the thesis hinge number (0 if not a hinge); ``axis`` is the centre line (2, 2) of a
+    link/hinge, and ``width`` its in-plane thickness.
+    """
+
+    name: str
+    kind: str
+    polygon: np.ndarray
+    hinge: int = 0
+    axis: np.ndarray | None = None
+    width: float = 0.0
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Key points (left side; the right side mirrors x) and the derived levels, mm."""
+
+    design: Design
+    y_base: float        # top face of the base plate
+    y_top: float         # bottom face of the top plate
+    P0: np.ndarray       # base hinge root on the base plate (left)
+    P1: np.ndarray       # knee hinge root under the knee block
+    P2: np.ndarray       # knee hinge root on top of the knee block
+    P3: np.ndarray       # top hinge root under the top plate
+    K: np.ndarray        # middle link root on the knee block's inner face
+    Q: np.ndarray        # middle link root on the platform's side face
+    input_point: np.ndarray   # top plate centre, top face (load applied here, downward)
+    output_point: np.ndarray  # the mirror: platform underside centre (top plate's for basis)
+    post_top: float      # fiber tip level (top of the fiber post)
+
+
+def _mirror(p: np.ndarray) -> np.ndarray:
+    return p * np.array([-1.0, 1.0])
+
+
+def make_layout(d: Design) -> Layout:
+    """Key points of a design. Pure arithmetic; no feasibility check (see geometry.checks)."""
+    W, H = d.width_mm, d.height_mm
+    y_base = d.plate_thickness_mm
+    y_top = H - d.plate_thickness_mm
+    rise = (y_top - y_base - d.knee_height_mm) / 2.0  # vertical rise of each side member
+    x_knee = -W / 2 + d.knee_width_mm / 2
+    x_root = x_knee + rise * math.tan(math.radians(d.phi1_deg))
+    P0 = np.array([x_root, y_base])
+    P1 = np.array([x_knee, y_base + rise])
+    P2 = np.array([x_knee, y_base + rise + d.knee_height_mm])
+    P3 = np.array([x_root, y_top])
+    y_mid = (P1[1] + P2[1]) / 2
+    K = np.array([-W / 2 + d.knee_width_mm, y_mid])
+    if d.is_basis:
+        Q = K.copy()
+        output = np.array([0.0, y_top])
+    else:
+        span = -d.platform_width_mm / 2 - K[0]
+        Q = np.array([-d.platform_width_mm / 2, y_mid + span * math.tan(math.radians(d.phi2_deg))])
+        output = np.array([0.0, Q[1] - d.platform_thickness_mm / 2])
+    return Layout(d, y_base, y_top, P0, P1, P2, P3, K, Q, np.array([0.0, H]), output,
+                  output[1] - d.fiber_clearance_mm)
+
+
+def _rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+
+
+def _bar(a: np.ndarray, b: np.ndarray, width: float, extend_a: float = 0.0,
+         extend_b: float = 0.0) -> np.ndarray:
+    """Rectangle of ``width`` around segment a-b, lengthened past a and b (into the bodies
+    the segment is rooted in, so the union has no notch)."""
+    u = (b - a) / np.linalg.norm(b - a)
+    n = np.array([-u[1], u[0]]) * width / 2
+    a2, b2 = a - u * extend_a, b + u * extend_b
+    return np.array([a2 - n, b2 - n, b2 + n, a2 + n])
+
+
+def member_chain(a: np.ndarray, b: np.ndarray, hinge_length: float) -> np.ndarray:
+    """Nodes of a hinge-link-hinge member from a to b: (4, 2) = a, a + l_h u, b - l_h u, b."""
+    u = (b - a) / np.linalg.norm(b - a)
+    return np.array([a, a + u * hinge_length, b - u * hinge_length, b])
+
+
+def side_members(lay: Layout) -> list[tuple[str, np.ndarray, int, int]]:
+    """The hinge-link-hinge members: (name, end points (2, 2), first hinge, second hinge).
+
+    Order and hinge numbers follow the loop numbering of :mod:`geometry.params`.
+    """
+    m = [("left lower", np.array([lay.P0, lay.P1]), 1, 2),
+         ("left upper", np.array([lay.P2, lay.P3]), 3, 4),
+         ("right upper", np.array([_mirror(lay.P3), _mirror(lay.P2)]), 5, 6),
+         ("right lower", np.array([_mirror(lay.P1), _mirror(lay.P0)]), 7, 8)]
+    if not lay.design.is_basis:
+        m += [("left middle", np.array([lay.K, lay.Q]), 9, 10),
+              ("right middle", np.array([_mirror(lay.Q), _mirror(lay.K)]), 11, 12)]
+    return m
+
+
+def make_parts(lay: Layout) -> list[Part]:
+    """The convex pieces whose union is the 2D profile."""
+    d = lay.design
+    W, H = d.width_mm, d.height_mm
+    top_half = -lay.P3[0] + d.link_width_mm
+    parts = [
+        Part("base plate", "plate", _rect(-W / 2, 0.0, W / 2, lay.y_base)),
+        Part("top plate", "plate", _rect(-top_half, lay.y_top, top_half, H)),
+        Part("left knee", "block", _rect(-W / 2, lay.P1[1], -W / 2 + d.knee_width_mm, lay.P2[1])),
+        Part("right knee", "block", _rect(W / 2 - d.knee_width_mm, lay.P1[1], W / 2, lay.P2[1])),
+        Part("fiber post", "post", _rect(-d.fiber_post_width_mm / 2, lay.y_base - d.plate_thickness_mm / 2,
+                                         d.fiber_post_width_mm / 2, lay.post_top)),
+    ]
+    if not d.is_basis:
+        parts.append(Part("platform", "platform",
+                          _rect(-d.platform_width_mm / 2, lay.output_point[1],
+                                d.platform_width_mm / 2, lay.output_point[1] + d.platform_thickness_mm)))
+    lh = d.hinge_length_mm
+    for name, (a, b), h1, h2 in side_members(lay):
+        nodes = member_chain(a, b, lh)
+        t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
+        ext = d.link_width_mm  # how far a root reaches into its rigid body
+        parts.append(Part(f"hinge {h1}", "hinge", _bar(nodes[0], nodes[1], t1, extend_a=ext), h1,
+                          nodes[0:2], t1))
+        parts.append(Part(f"{name} link", "link", _bar(nodes[1], nodes[2], d.link_width_mm), 0,
+                          nodes[1:3], d.link_width_mm))
+        parts.append(Part(f"hinge {h2}", "hinge", _bar(nodes[2], nodes[3], t2, extend_b=ext), h2,
+                          nodes[2:4], t2))
+    return parts
+
+
+def kinematic_amplification(phi1_deg: float, phi2_deg: float | None) -> float:
+    """A_kin = 1/2 + cot(phi2) / (2 tan(phi1)) for rigid links on ideal pivots (DESIGN
+    section 3); 1 for the basis body, whose output is the top plate."""
+    if phi2_deg is None:
+        return 1.0
+    p1, p2 = math.radians(phi1_deg), math.radians(phi2_deg)
+    return 0.5 + 1.0 / (math.tan(p2) * 2.0 * math.tan(p1))

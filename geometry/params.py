@@ -1,0 +1,235 @@
+"""The parameters of one DACM design, its presets (thesis Tables 5 and 7) and TOML I/O.
+
+Units: lengths in mm, moduli in MPa (N/mm^2), angles in degrees.
+Hinges are numbered 1-12 as in thesis Figure 48 (reconstructed, DESIGN section 3): going
+round the hexagon, 1 = left base, 2 = left knee (lower), 3 = left knee (upper), 4 = left top,
+5 = right top, 6 = right knee (upper), 7 = right knee (lower), 8 = right base; on the middle
+branch 9 = left knee side, 10 = left platform side, 11 = right platform side, 12 = right knee
+side. This numbering makes Table 7's near-equal pairs (1, 8), (4, 5), (9, 12), (10, 11)
+mirror images.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import tomli_w
+
+from geometry.atomic import atomic_path
+from geometry.errors import GeometryError, ParameterError
+
+N_HINGES = 12
+
+#: Named hinge sets of thesis section 6.2.3: in-plane thickness (mm) of hinges 1-8 and 9-12.
+HINGE_SETS: dict[str, tuple[float, float]] = {"05-03": (0.5, 0.3), "03-03": (0.3, 0.3)}
+
+#: Measured hinge thicknesses (mm) of the water-jet-cut specimens, thesis Table 7.
+TABLE7_HINGES: dict[str, tuple[float, ...]] = {
+    "basis": (0.58, 0.54, 0.54, 0.54, 0.53, 0.53, 0.50, 0.58, 0.30, 0.30, 0.30, 0.30),
+    "sample-a": (0.50, 0.48, 0.48, 0.52, 0.52, 0.51, 0.51, 0.50, 0.25, 0.30, 0.30, 0.25),
+    "sample-b": (0.52, 0.55, 0.55, 0.53, 0.52, 0.51, 0.51, 0.50, 0.26, 0.30, 0.31, 0.26),
+}
+
+
+@dataclass(frozen=True)
+class Material:
+    """A linear elastic sheet material: Young's modulus ``E_MPa`` and Poisson's ratio ``nu``."""
+
+    name: str
+    E_MPa: float
+    nu: float
+
+    @property
+    def G_MPa(self) -> float:
+        """Shear modulus G = E / (2 (1 + nu)), MPa (used by the shear term of eqs 80-81)."""
+        return self.E_MPa / (2.0 * (1.0 + self.nu))
+
+
+#: Delrin with the thesis' calibrated E = 2.3 GPa (section 6.2.4); ABS as printed (FDM),
+#: E about 1.8 GPa, the thesis' softer second material (section 6.1.3).
+MATERIALS: dict[str, Material] = {
+    "delrin": Material("delrin", 2300.0, 0.35),
+    "abs": Material("abs", 1800.0, 0.35),
+}
+
+
+def hinge_set_thicknesses(name: str) -> tuple[float, ...]:
+    """Thicknesses (mm) of hinges 1-12 for a named hinge set ("05-03" or "03-03")."""
+    if name not in HINGE_SETS:
+        raise ParameterError(
+            f"hinge_set = {name!r}: must be one of {', '.join(sorted(HINGE_SETS))}"
+        )
+    side, middle = HINGE_SETS[name]
+    return (side,) * 8 + (middle,) * 4
+
+
+@dataclass(frozen=True)
+class Design:
+    """One DACM design. ``phi2_deg = None`` is the basis (hexagon) body without middle branch.
+
+    Angles: ``phi1_deg`` is the side links' lean from the vertical, ``phi2_deg`` the middle
+    links' rise above the horizontal (Figure 48). ``hinge_thickness_mm`` holds hinges 1-12
+    (9-12 are unused by the basis body). Defaults are documented in DESIGN section 3 and the
+    README; ``hinge_length_mm`` is the one effective parameter calibrated on the basis
+    specimen (see ``sensor.calibration``).
+    """
+
+    phi1_deg: float = 22.0
+    phi2_deg: float | None = 17.2
+    hinge_set: str = "05-03"
+    hinge_thickness_mm: tuple[float, ...] = field(default_factory=lambda: hinge_set_thicknesses("05-03"))
+    width_mm: float = 25.0
+    height_mm: float = 30.0
+    sheet_thickness_mm: float = 5.1
+    hinge_length_mm: float = 2.0
+    link_width_mm: float = 2.0
+    plate_thickness_mm: float = 3.0
+    knee_width_mm: float = 3.0
+    knee_height_mm: float = 4.0
+    platform_width_mm: float = 4.0
+    platform_thickness_mm: float = 2.0
+    fiber_post_width_mm: float = 3.0
+    fiber_clearance_mm: float = 1.5
+    material: Material = MATERIALS["delrin"]
+    kerf_mm: float = 0.8
+    min_feature_mm: float = 0.25
+    name: str = "custom"
+
+    def __post_init__(self):
+        validate(self)
+
+    @property
+    def is_basis(self) -> bool:
+        return self.phi2_deg is None
+
+    def replace(self, **changes) -> "Design":
+        """A copy with some fields changed (and validated)."""
+        return dataclasses.replace(self, **changes)
+
+
+_POSITIVE = (
+    "width_mm", "height_mm", "sheet_thickness_mm", "hinge_length_mm", "link_width_mm",
+    "plate_thickness_mm", "knee_width_mm", "knee_height_mm", "platform_width_mm",
+    "platform_thickness_mm", "fiber_post_width_mm", "fiber_clearance_mm", "kerf_mm",
+    "min_feature_mm",
+)
+
+
+def validate(d: Design) -> None:
+    """Check each parameter on its own (ranges, types); raise :class:`ParameterError`.
+
+    Whether the parameters fit together is the job of :mod:`geometry.checks`.
+    """
+    for name in _POSITIVE:
+        value = getattr(d, name)
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+            raise ParameterError(f"{name} = {value!r}: must be a positive finite number (mm)")
+    if not (0.0 < d.phi1_deg < 90.0):
+        raise ParameterError(f"phi1_deg = {d.phi1_deg!r}: must lie strictly between 0 and 90 degrees")
+    if d.phi2_deg is not None and not (0.0 < d.phi2_deg < 90.0):
+        raise ParameterError(f"phi2_deg = {d.phi2_deg!r}: must lie strictly between 0 and 90 degrees")
+    if len(d.hinge_thickness_mm) != N_HINGES:
+        raise ParameterError(
+            f"hinge_thickness_mm has {len(d.hinge_thickness_mm)} values: must give hinges 1-{N_HINGES}"
+        )
+    for i, t in enumerate(d.hinge_thickness_mm, start=1):
+        if not math.isfinite(t) or t <= 0:
+            raise ParameterError(f"hinge {i} thickness = {t!r} mm: must be positive")
+    if not (d.material.E_MPa > 0 and math.isfinite(d.material.E_MPa)):
+        raise ParameterError(f"material.E_MPa = {d.material.E_MPa!r}: must be positive")
+    if not (0.0 <= d.material.nu < 0.5):
+        raise ParameterError(f"material.nu = {d.material.nu!r}: must lie in [0, 0.5)")
+
+
+def make_design(phi1_deg: float = 22.0, phi2_deg: float | None = 17.2, hinges: str = "05-03",
+                **overrides) -> Design:
+    """A design from angles and a named hinge set; other fields by keyword."""
+    return Design(phi1_deg=phi1_deg, phi2_deg=phi2_deg, hinge_set=hinges,
+                  hinge_thickness_mm=hinge_set_thicknesses(hinges), **overrides)
+
+
+#: Angles of the thesis specimens, Table 5.
+_TABLE5 = {"basis": (22.0, None), "sample-a": (21.0, 34.0), "sample-b": (22.0, 17.2)}
+
+PRESETS = tuple(_TABLE5) + tuple(f"{k}-as-cut" for k in _TABLE5)
+
+
+def preset(name: str) -> Design:
+    """A thesis specimen: ``basis``, ``sample-a``, ``sample-b`` (Table 5, hinge set 05-03),
+    or the same with ``-as-cut`` (the measured hinge thicknesses of Table 7)."""
+    if name not in PRESETS:
+        raise ParameterError(f"preset = {name!r}: unknown; choose one of {', '.join(PRESETS)}")
+    base = name.removesuffix("-as-cut")
+    phi1, phi2 = _TABLE5[base]
+    if name.endswith("-as-cut"):
+        return Design(phi1_deg=phi1, phi2_deg=phi2, hinge_set="as-cut",
+                      hinge_thickness_mm=TABLE7_HINGES[base], name=name)
+    return make_design(phi1, phi2, "05-03", name=name)
+
+
+# --- TOML ------------------------------------------------------------------------------
+
+def design_to_dict(d: Design) -> dict:
+    """A plain dict of the design (TOML/JSON friendly; ``phi2_deg`` omitted for the basis)."""
+    out = {}
+    for f in dataclasses.fields(d):
+        value = getattr(d, f.name)
+        if f.name == "material":
+            out["material"] = dataclasses.asdict(value)
+        elif f.name == "hinge_thickness_mm":
+            out[f.name] = list(value)
+        elif value is not None:
+            out[f.name] = value
+    return out
+
+
+def design_from_dict(data: dict, source: str = "design") -> Design:
+    """Build a design from a dict such as ``design_to_dict`` writes (unknown keys are errors).
+
+    ``material`` may be a preset name ("delrin", "abs") or a table with name, E_MPa, nu.
+    ``hinge_set`` alone sets the thicknesses of a named set.
+    """
+    data = dict(data)
+    known = {f.name for f in dataclasses.fields(Design)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ParameterError(f"{source}: unknown key(s) {', '.join(unknown)}; known keys: {', '.join(sorted(known))}")
+    mat = data.get("material")
+    if isinstance(mat, str):
+        if mat not in MATERIALS:
+            raise ParameterError(f"material = {mat!r}: unknown; choose one of {', '.join(MATERIALS)} or give a table")
+        data["material"] = MATERIALS[mat]
+    elif isinstance(mat, dict):
+        try:
+            data["material"] = Material(str(mat["name"]), float(mat["E_MPa"]), float(mat["nu"]))
+        except KeyError as exc:
+            raise ParameterError(f"material table lacks {exc.args[0]!r} (needs name, E_MPa, nu)") from None
+    if "hinge_thickness_mm" in data:
+        data["hinge_thickness_mm"] = tuple(float(t) for t in data["hinge_thickness_mm"])
+    elif "hinge_set" in data:
+        data["hinge_thickness_mm"] = hinge_set_thicknesses(data["hinge_set"])
+    try:
+        return Design(**data)
+    except TypeError as exc:
+        raise ParameterError(f"{source}: {exc}") from None
+
+
+def load_design(path: str | Path) -> Design:
+    """Read a design from a TOML file (the keys of :class:`Design`, at top level or in [design])."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise GeometryError(f"{path}: malformed TOML: {exc}") from None
+    return design_from_dict(data.get("design", data), source=str(path))
+
+
+def save_design(design: Design, path: str | Path) -> None:
+    """Write a design as TOML (atomically)."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(tomli_w.dumps({"design": design_to_dict(design)}).encode())

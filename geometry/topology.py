@@ -1,0 +1,245 @@
+"""The planar beam model of a design (pure numpy, no CadQuery) and its JSON schema.
+
+This is what the chain-algorithm solver consumes (thesis section 6.2.1, Figure 46): nodes,
+members (each a compliant hinge, a link, or a rigid connection inside a plate or block), the
+clamped support, the input port and the output port.
+
+JSON schema ``dacm-beam-model/1`` (units mm, MPa)::
+
+    {"schema": "dacm-beam-model/1",
+     "units": {"length": "mm", "modulus": "MPa"},
+     "material": {"name": str, "E_MPa": float, "nu": float},
+     "nodes": [[x, y], ...],
+     "members": [{"kind": "hinge"|"link"|"rigid", "start": int, "end": int,
+                  "thickness_mm": float, "depth_mm": float, "hinge": int (0 if none),
+                  "name": str}, ...],
+     "supports": [{"node": int, "dofs": ["x", "y", "rz"]}, ...],
+     "input": {"node": int, "direction": [dx, dy]},
+     "output": {"node": int, "direction": [dx, dy]}}
+
+``thickness_mm`` is the in-plane size (bending about z), ``depth_mm`` the out-of-plane size
+(the sheet thickness); ``rigid`` members join nodes of one rigid body and have no
+compliance. ``direction`` is a unit vector: the input force acts along it, and the output
+travel is measured along it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from geometry.errors import GeometryError
+from geometry.layout import Layout, make_layout, member_chain, side_members
+from geometry.params import Design
+
+SCHEMA = "dacm-beam-model/1"
+MEMBER_KINDS = ("hinge", "link", "rigid")
+DOF_NAMES = ("x", "y", "rz")
+
+
+@dataclass(frozen=True, eq=False)
+class BeamModel:
+    """A planar frame: arrays indexed by node (``nodes``) and by member (the rest)."""
+
+    nodes: np.ndarray                 # (n, 2) mm
+    member_nodes: np.ndarray          # (m, 2) int: start, end
+    member_kind: tuple[str, ...]      # "hinge" | "link" | "rigid"
+    thickness_mm: np.ndarray          # (m,) in-plane thickness
+    depth_mm: np.ndarray              # (m,) out-of-plane depth
+    hinge_number: np.ndarray          # (m,) thesis hinge number, 0 if not a hinge
+    member_name: tuple[str, ...]
+    supports: tuple[tuple[int, tuple[str, ...]], ...]   # (node, fixed dofs)
+    input_node: int
+    input_direction: np.ndarray       # (2,) unit vector of the input force
+    output_node: int
+    output_direction: np.ndarray      # (2,) unit vector of the measured output travel
+    E_MPa: float
+    nu: float
+    material_name: str = "custom"
+    labels: dict = field(default_factory=dict)  # optional named nodes, for reports
+
+    @property
+    def lengths_mm(self) -> np.ndarray:
+        a, b = self.nodes[self.member_nodes[:, 0]], self.nodes[self.member_nodes[:, 1]]
+        return np.linalg.norm(b - a, axis=1)
+
+    @property
+    def hinge_members(self) -> np.ndarray:
+        """Member indices of the hinges, ordered by thesis hinge number."""
+        idx = np.flatnonzero(self.hinge_number > 0)
+        return idx[np.argsort(self.hinge_number[idx])]
+
+
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def build_beam_model(design: Design, layout: Layout | None = None) -> BeamModel:
+    """The beam model of a design, hinges numbered as in Figure 48 (see geometry.params).
+
+    Costs a few tens of microseconds: sweeps build thousands.
+    """
+    lay = layout or make_layout(design)
+    d = design
+    mirror = np.array([-1.0, 1.0])
+    nodes: list[np.ndarray] = []
+    members: list[tuple] = []  # (kind, start, end, thickness, hinge, name)
+
+    def node(p) -> int:
+        nodes.append(np.asarray(p, dtype=float))
+        return len(nodes) - 1
+
+    base_l, base_r = node(lay.P0), node(lay.P0 * mirror)
+    knee_lo_l, knee_hi_l = node(lay.P1), node(lay.P2)
+    knee_lo_r, knee_hi_r = node(lay.P1 * mirror), node(lay.P2 * mirror)
+    top_l, top_r = node(lay.P3), node(lay.P3 * mirror)
+    inp = node(lay.input_point)
+    anchor = {tuple(np.round(p, 12)): i for i, p in
+              ((base_l, lay.P0), (base_r, lay.P0 * mirror), (knee_lo_l, lay.P1),
+               (knee_hi_l, lay.P2), (knee_lo_r, lay.P1 * mirror), (knee_hi_r, lay.P2 * mirror),
+               (top_l, lay.P3), (top_r, lay.P3 * mirror))}
+
+    # rigid bodies: top plate (input), knee blocks, and the output (platform or top plate)
+    members += [("rigid", top_l, inp, d.plate_thickness_mm, 0, "top plate"),
+                ("rigid", inp, top_r, d.plate_thickness_mm, 0, "top plate"),
+                ("rigid", knee_lo_l, knee_hi_l, d.knee_width_mm, 0, "left knee"),
+                ("rigid", knee_lo_r, knee_hi_r, d.knee_width_mm, 0, "right knee")]
+    if d.is_basis:
+        out = node(lay.output_point)
+        members.append(("rigid", inp, out, d.plate_thickness_mm, 0, "top plate"))
+    else:
+        k_l, k_r = node(lay.K), node(lay.K * mirror)
+        q_l, q_r = node(lay.Q), node(lay.Q * mirror)
+        out = node(lay.output_point)
+        anchor.update({tuple(np.round(lay.K, 12)): k_l, tuple(np.round(lay.K * mirror, 12)): k_r,
+                       tuple(np.round(lay.Q, 12)): q_l, tuple(np.round(lay.Q * mirror, 12)): q_r})
+        members += [("rigid", knee_lo_l, k_l, d.knee_width_mm, 0, "left knee"),
+                    ("rigid", knee_lo_r, k_r, d.knee_width_mm, 0, "right knee"),
+                    ("rigid", q_l, out, d.platform_thickness_mm, 0, "platform"),
+                    ("rigid", out, q_r, d.platform_thickness_mm, 0, "platform")]
+
+    for name, (a, b), h1, h2 in side_members(lay):
+        chain = member_chain(a, b, d.hinge_length_mm)
+        ia = anchor[tuple(np.round(a, 12))]
+        ib = anchor[tuple(np.round(b, 12))]
+        j1, j2 = node(chain[1]), node(chain[2])
+        members += [("hinge", ia, j1, d.hinge_thickness_mm[h1 - 1], h1, f"hinge {h1}"),
+                    ("link", j1, j2, d.link_width_mm, 0, f"{name} link"),
+                    ("hinge", j2, ib, d.hinge_thickness_mm[h2 - 1], h2, f"hinge {h2}")]
+
+    kinds, starts, ends, thick, hinge, names = zip(*members)
+    m = len(members)
+    return BeamModel(
+        nodes=np.array(nodes),
+        member_nodes=np.column_stack([starts, ends]).astype(int),
+        member_kind=tuple(kinds),
+        thickness_mm=np.array(thick, dtype=float),
+        depth_mm=np.full(m, d.sheet_thickness_mm),
+        hinge_number=np.array(hinge, dtype=int),
+        member_name=tuple(names),
+        supports=((base_l, DOF_NAMES), (base_r, DOF_NAMES)),
+        input_node=inp,
+        input_direction=np.array([0.0, -1.0]),
+        output_node=out,
+        output_direction=np.array([0.0, -1.0]),
+        E_MPa=d.material.E_MPa,
+        nu=d.material.nu,
+        material_name=d.material.name,
+        labels={"input": inp, "output": out, "base left": base_l, "base right": base_r},
+    )
+
+
+# --- JSON ------------------------------------------------------------------------------
+
+def model_to_dict(model: BeamModel) -> dict:
+    """The beam model as a dict of schema ``dacm-beam-model/1``."""
+    return {
+        "schema": SCHEMA,
+        "units": {"length": "mm", "modulus": "MPa"},
+        "material": {"name": model.material_name, "E_MPa": model.E_MPa, "nu": model.nu},
+        "nodes": model.nodes.tolist(),
+        "members": [
+            {"kind": k, "start": int(s), "end": int(e), "thickness_mm": float(t),
+             "depth_mm": float(b), "hinge": int(h), "name": n}
+            for k, (s, e), t, b, h, n in zip(model.member_kind, model.member_nodes,
+                                            model.thickness_mm, model.depth_mm,
+                                            model.hinge_number, model.member_name)
+        ],
+        "supports": [{"node": int(n), "dofs": list(dofs)} for n, dofs in model.supports],
+        "input": {"node": model.input_node, "direction": model.input_direction.tolist()},
+        "output": {"node": model.output_node, "direction": model.output_direction.tolist()},
+    }
+
+
+def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
+    """Read a beam model from a schema ``dacm-beam-model/1`` dict, checking it as it goes."""
+    def fail(msg):
+        raise GeometryError(f"{source}: {msg}")
+
+    if data.get("schema") != SCHEMA:
+        fail(f"schema = {data.get('schema')!r}: expected {SCHEMA!r}")
+    try:
+        nodes = np.asarray(data["nodes"], dtype=float)
+        mem = data["members"]
+        mat = data["material"]
+        supports = tuple((int(s["node"]), tuple(s["dofs"])) for s in data["supports"])
+        inp, out = data["input"], data["output"]
+    except (KeyError, TypeError, ValueError) as exc:
+        fail(f"missing or malformed field: {exc}")
+    if nodes.ndim != 2 or nodes.shape[1] != 2 or len(nodes) < 2:
+        fail(f"nodes must be a list of [x, y] pairs, got shape {nodes.shape}")
+    n = len(nodes)
+    for i, mbr in enumerate(mem):
+        if mbr.get("kind") not in MEMBER_KINDS:
+            fail(f"member {i} kind = {mbr.get('kind')!r}: must be one of {MEMBER_KINDS}")
+        for end in ("start", "end"):
+            if not (0 <= int(mbr[end]) < n):
+                fail(f"member {i} {end} = {mbr[end]}: must be a node index in [0, {n})")
+        if mbr["start"] == mbr["end"]:
+            fail(f"member {i}: start and end are the same node")
+        if mbr["kind"] != "rigid" and not (mbr["thickness_mm"] > 0 and mbr["depth_mm"] > 0):
+            fail(f"member {i} thickness/depth must be positive")
+    for node, dofs in supports:
+        if not (0 <= node < n) or not set(dofs) <= set(DOF_NAMES):
+            fail(f"support at node {node} with dofs {dofs}: node must exist, dofs in {DOF_NAMES}")
+    if not supports:
+        fail("no support: the model would move as a rigid body")
+    for port, p in (("input", inp), ("output", out)):
+        if not (0 <= int(p["node"]) < n):
+            fail(f"{port} node = {p['node']}: must be a node index in [0, {n})")
+    if not (float(mat["E_MPa"]) > 0 and 0 <= float(mat["nu"]) < 0.5):
+        fail(f"material E_MPa = {mat['E_MPa']}, nu = {mat['nu']}: need E > 0 and 0 <= nu < 0.5")
+    return BeamModel(
+        nodes=nodes,
+        member_nodes=np.array([[int(m_["start"]), int(m_["end"])] for m_ in mem], dtype=int),
+        member_kind=tuple(m_["kind"] for m_ in mem),
+        thickness_mm=np.array([float(m_.get("thickness_mm", 0.0)) for m_ in mem]),
+        depth_mm=np.array([float(m_.get("depth_mm", 0.0)) for m_ in mem]),
+        hinge_number=np.array([int(m_.get("hinge", 0)) for m_ in mem], dtype=int),
+        member_name=tuple(str(m_.get("name", f"member {i}")) for i, m_ in enumerate(mem)),
+        supports=supports,
+        input_node=int(inp["node"]),
+        input_direction=_unit(inp["direction"]),
+        output_node=int(out["node"]),
+        output_direction=_unit(out["direction"]),
+        E_MPa=float(mat["E_MPa"]),
+        nu=float(mat["nu"]),
+        material_name=str(mat.get("name", "custom")),
+    )
+
+
+def model_to_json(model: BeamModel) -> str:
+    return json.dumps(model_to_dict(model), indent=1)
+
+
+def load_model(path) -> BeamModel:
+    """Read a beam-model JSON file."""
+    try:
+        with open(path) as fh:
+            data = json.load(fh)
+    except json.JSONDecodeError as exc:
+        raise GeometryError(f"{path}: malformed JSON: {exc}") from None
+    return model_from_dict(data, source=str(path))
