@@ -1,0 +1,287 @@
+"""Load MR images from DICOM (file, series folder, enhanced multi-frame), NIfTI, PNG/TIFF and NPY.
+
+Every loader returns an :class:`mri.image.MriImage` with float64 pixels of shape
+``(slices, rows, cols)`` and whatever metadata the format carries. Anything that is not a
+usable image raises :class:`mri.errors.ImageLoadError` with the path in the message.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mri.errors import ImageLoadError
+from mri.image import MriImage, as_pixels
+
+#: DICOM keywords of the protocol fields a pair must share, with the names used in reports.
+#: Each entry lists the classic keyword first and the enhanced multi-frame one second.
+DICOM_ACQUISITION_FIELDS = {
+    "repetition_time_ms": ("RepetitionTime",),
+    "echo_time_ms": ("EchoTime", "EffectiveEchoTime"),
+    "flip_angle_deg": ("FlipAngle",),
+    "pixel_bandwidth_hz": ("PixelBandwidth",),
+    "averages": ("NumberOfAverages",),
+    "field_strength_t": ("MagneticFieldStrength",),
+    "sequence": ("ScanningSequence", "PulseSequenceName"),
+}
+
+#: Descriptive DICOM fields that may differ between the images of a pair with only a warning.
+DICOM_DESCRIPTIVE_FIELDS = {"receive_coil": ("ReceiveCoilName",)}
+
+_TIFF_SUFFIXES = (".tif", ".tiff")
+_PNG_SUFFIXES = (".png",)
+
+
+def load_image(path) -> MriImage:
+    """Load an image or volume from ``path`` (a file, or a folder holding one DICOM series)."""
+    p = Path(path)
+    if p.is_dir():
+        return load_dicom_series(p)
+    if not p.is_file():
+        raise ImageLoadError(f"{p}: no such file or folder")
+    name = p.name.lower()
+    if name.endswith((".nii", ".nii.gz")):
+        return load_nifti(p)
+    if name.endswith(_PNG_SUFFIXES + _TIFF_SUFFIXES):
+        return load_raster(p)
+    if name.endswith(".npy"):
+        return load_npy(p)
+    return load_dicom_file(p)
+
+
+# --------------------------------------------------------------------------- DICOM
+
+
+def _read_dicom(path: Path):
+    """Read a DICOM dataset, or return None when the file is not DICOM."""
+    import pydicom
+    from pydicom.errors import InvalidDicomError
+
+    try:
+        return pydicom.dcmread(path)
+    except InvalidDicomError:
+        return None
+    except (OSError, ValueError, EOFError) as exc:  # truncated or corrupt file
+        raise ImageLoadError(f"{path}: unreadable DICOM file ({exc})") from None
+
+
+def _lookup(ds, keyword: str, frame: int = 0):
+    """A DICOM attribute from frame ``frame``'s functional groups, the shared ones, or the top level.
+
+    Enhanced multi-frame files keep spacing, orientation, rescale and timing inside
+    per-frame and shared functional-group sequences; classic files keep them at the top level.
+    """
+    for group_keyword in ("PerFrameFunctionalGroupsSequence", "SharedFunctionalGroupsSequence"):
+        groups = ds.get(group_keyword)
+        if not groups:
+            continue
+        item = groups[min(frame, len(groups) - 1)]
+        for element in item:
+            if element.VR == "SQ" and len(element.value) and keyword in element.value[0]:
+                return element.value[0][keyword].value
+    return ds.get(keyword)
+
+
+def _first(ds, keywords: tuple[str, ...]):
+    for keyword in keywords:
+        value = _lookup(ds, keyword)
+        if value not in (None, ""):
+            return value
+    return None
+
+
+def _plain(value):
+    """DICOM value -> JSON-friendly Python value (numbers as float, multi-values joined)."""
+    if value is None:
+        return None
+    if isinstance(value, (list, tuple)) or type(value).__name__ == "MultiValue":
+        return "\\".join(str(v) for v in value)
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def _dicom_frames(ds, path: Path) -> np.ndarray:
+    """Pixels of one DICOM dataset as float64 (frames, rows, cols) with the rescale applied."""
+    if "PixelData" not in ds:
+        sop = getattr(ds.get("SOPClassUID"), "name", ds.get("SOPClassUID"))
+        raise ImageLoadError(f"{path}: DICOM file without pixel data (SOP class {sop!s})")
+    if int(ds.get("SamplesPerPixel", 1)) != 1:
+        raise ImageLoadError(
+            f"{path}: colour DICOM ({ds.get('PhotometricInterpretation')}); "
+            "MR magnitude images must be greyscale"
+        )
+    try:
+        raw = ds.pixel_array
+    except Exception as exc:  # pydicom raises many types for unsupported encodings
+        raise ImageLoadError(f"{path}: cannot decode DICOM pixel data ({exc})") from None
+    frames = as_pixels(raw, str(path))
+    slopes = [float(_lookup(ds, "RescaleSlope", k) or 1.0) for k in range(frames.shape[0])]
+    intercepts = [float(_lookup(ds, "RescaleIntercept", k) or 0.0) for k in range(frames.shape[0])]
+    if any(s != 1.0 for s in slopes) or any(i != 0.0 for i in intercepts):
+        frames = frames * np.array(slopes)[:, None, None] + np.array(intercepts)[:, None, None]
+    return frames
+
+
+def _dicom_image(datasets: list, pixels: np.ndarray, source: str) -> MriImage:
+    """Build an :class:`MriImage` from the first dataset's metadata and the stacked pixels."""
+    ds = datasets[0]
+    spacing = _lookup(ds, "PixelSpacing")
+    thickness = _lookup(ds, "SliceThickness")
+    orientation = _lookup(ds, "ImageOrientationPatient")
+    position = _lookup(ds, "ImagePositionPatient")
+    scanner = " ".join(
+        str(v)
+        for v in (ds.get("Manufacturer"), ds.get("ManufacturerModelName"))
+        if v not in (None, "")
+    )
+    series_number = ds.get("SeriesNumber")
+    acquisition = {
+        name: _plain(_first(ds, keywords)) for name, keywords in DICOM_ACQUISITION_FIELDS.items()
+    }
+    acquisition.update(
+        {name: _plain(_first(ds, keywords)) for name, keywords in DICOM_DESCRIPTIVE_FIELDS.items()}
+    )
+    return MriImage(
+        pixels=pixels,
+        source=source,
+        format="dicom",
+        pixel_spacing_mm=tuple(float(v) for v in spacing) if spacing else None,
+        slice_thickness_mm=float(thickness) if thickness not in (None, "") else None,
+        orientation=tuple(float(v) for v in orientation) if orientation else None,
+        position_mm=tuple(float(v) for v in position) if position else None,
+        series=str(ds.get("SeriesDescription") or "") or None,
+        series_number=int(series_number) if series_number not in (None, "") else None,
+        scanner=scanner or None,
+        acquisition={k: v for k, v in acquisition.items() if v is not None},
+    )
+
+
+def load_dicom_file(path) -> MriImage:
+    """One DICOM file: a single image, a classic multi-frame or an enhanced multi-frame file."""
+    p = Path(path)
+    ds = _read_dicom(p)
+    if ds is None:
+        raise ImageLoadError(
+            f"{p}: not a DICOM, NIfTI (.nii, .nii.gz), PNG, TIFF or NPY file"
+        )
+    return _dicom_image([ds], _dicom_frames(ds, p), str(p))
+
+
+def _slice_key(ds) -> tuple[float, float]:
+    """Sort key of a series file: position along the slice normal, then instance number."""
+    orientation = _lookup(ds, "ImageOrientationPatient")
+    position = _lookup(ds, "ImagePositionPatient")
+    along = 0.0
+    if orientation and position:
+        cosines = np.array([float(v) for v in orientation])
+        along = float(np.dot(np.cross(cosines[:3], cosines[3:]), [float(v) for v in position]))
+    return along, float(ds.get("InstanceNumber") or 0)
+
+
+def load_dicom_series(folder) -> MriImage:
+    """All image files of the one DICOM series in ``folder``, stacked in slice order.
+
+    Files that are not DICOM or carry no pixel data (DICOMDIR, reports) are skipped. A folder
+    with no image, or with more than one series, is an error.
+    """
+    root = Path(folder)
+    datasets = []
+    for f in sorted(p for p in root.rglob("*") if p.is_file() and not p.name.startswith(".")):
+        ds = _read_dicom(f)
+        if ds is not None and "PixelData" in ds:
+            datasets.append((f, ds))
+    if not datasets:
+        raise ImageLoadError(f"{root}: folder holds no DICOM image files")
+    series = {str(ds.get("SeriesInstanceUID", "")) for _, ds in datasets}
+    if len(series) > 1:
+        raise ImageLoadError(
+            f"{root}: folder holds {len(series)} DICOM series; give a folder with one series "
+            "or a single file"
+        )
+    datasets.sort(key=lambda item: _slice_key(item[1]))
+    stacks = [_dicom_frames(ds, f) for f, ds in datasets]
+    shapes = {s.shape[1:] for s in stacks}
+    if len(shapes) > 1:
+        raise ImageLoadError(
+            f"{root}: series images differ in size {sorted(shapes)}; all slices must match"
+        )
+    return _dicom_image([ds for _, ds in datasets], np.concatenate(stacks), str(root))
+
+
+# --------------------------------------------------------------------------- other formats
+
+
+def load_nifti(path) -> MriImage:
+    """A NIfTI-1/2 image or volume (scaled); axes (i, j, k) become (slices=k, rows=j, cols=i)."""
+    import nibabel
+
+    p = Path(path)
+    try:
+        img = nibabel.load(str(p))
+        data = img.get_fdata()
+    except Exception as exc:  # nibabel raises several types for corrupt headers
+        raise ImageLoadError(f"{p}: unreadable NIfTI file ({exc})") from None
+    if data.ndim == 4 and data.shape[3] == 1:
+        data = data[..., 0]
+    if data.ndim not in (2, 3):
+        raise ImageLoadError(
+            f"{p}: NIfTI image of shape {data.shape}; expected 2-D or 3-D (extract one volume "
+            "of a time series first)"
+        )
+    zooms = [float(z) for z in img.header.get_zooms()[: data.ndim]]
+    pixels = as_pixels(np.transpose(data), str(p))
+    affine = img.affine
+    row_dir = affine[:3, 0] / np.linalg.norm(affine[:3, 0])
+    col_dir = affine[:3, 1] / np.linalg.norm(affine[:3, 1])
+    return MriImage(
+        pixels=pixels,
+        source=str(p),
+        format="nifti",
+        pixel_spacing_mm=(zooms[1], zooms[0]),
+        slice_thickness_mm=zooms[2] if data.ndim == 3 else None,
+        orientation=tuple(float(v) for v in np.concatenate([row_dir, col_dir])),
+        position_mm=tuple(float(v) for v in affine[:3, 3]),
+    )
+
+
+def _grey(array: np.ndarray, path: Path) -> np.ndarray:
+    """Greyscale pixels of a raster image: a grey or grey+alpha image, or RGB with equal channels."""
+    if array.ndim == 3 and array.shape[-1] in (2, 3, 4):
+        colour = array[..., :3] if array.shape[-1] >= 3 else array[..., :1]
+        if not np.all(colour == colour[..., :1]):
+            raise ImageLoadError(
+                f"{path}: colour image; MR magnitude images must be greyscale"
+            )
+        return colour[..., 0]
+    return array
+
+
+def load_raster(path) -> MriImage:
+    """A PNG or (multi-page) TIFF image; these formats carry no pixel spacing."""
+    p = Path(path)
+    try:
+        if p.name.lower().endswith(_TIFF_SUFFIXES):
+            import tifffile
+
+            array = tifffile.imread(p)
+        else:
+            import imageio.v3 as iio
+
+            array = iio.imread(p)
+    except Exception as exc:  # decoders raise many types for corrupt files
+        raise ImageLoadError(f"{p}: unreadable image file ({exc})") from None
+    fmt = "tiff" if p.name.lower().endswith(_TIFF_SUFFIXES) else "png"
+    return MriImage(pixels=as_pixels(_grey(array, p), str(p)), source=str(p), format=fmt)
+
+
+def load_npy(path) -> MriImage:
+    """A NumPy ``.npy`` array of shape (rows, cols) or (slices, rows, cols)."""
+    p = Path(path)
+    try:
+        array = np.load(p, allow_pickle=False)
+    except (ValueError, EOFError) as exc:
+        raise ImageLoadError(f"{p}: unreadable .npy file ({exc})") from None
+    return MriImage(pixels=as_pixels(array, str(p)), source=str(p), format="npy")

@@ -1,0 +1,261 @@
+"""Regions of interest: parsed from text, then resolved to pixel masks on one slice.
+
+ROI texts (sizes are pixels, or millimetres with an ``mm`` suffix; boxes are zero-based):
+
+``whole``                          every pixel (the thesis' eq 91 over the whole image)
+``box:ROW:COL:HEIGHT:WIDTH``       explicit box in pixels, top-left corner at (ROW, COL)
+``central-box:SIZE[:WIDTH]``       box centred on the image, SIZE x SIZE (or SIZE x WIDTH)
+``central-circle:DIAMETER``        disc centred on the image
+``mask:PATH``                      non-zero pixels of an image file of the same size
+``phantom[:EROSION]``              automatic phantom mask (Otsu threshold, largest component,
+                                   holes filled, eroded by EROSION, default 5 px)
+``nema5[:SIZE[:OFFSET]]``          five SIZE boxes (default 20 px) on the phantom centre and at
+                                   (+-OFFSET, +-OFFSET) from it (default 40 px), as MRI QA tools
+                                   (hazen, McCann et al. 2013) place them for NEMA MS 1
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from mri.errors import RoiError
+
+#: Default erosion of the automatic phantom mask (pixels) and NEMA box layout (pixels).
+PHANTOM_EROSION_PX = 5
+NEMA5_SIZE_PX = 20
+NEMA5_OFFSET_PX = 40
+
+_LENGTH = re.compile(r"^(\d+(?:\.\d+)?)(mm|px)?$")
+
+
+@dataclass(frozen=True)
+class Length:
+    """A length given on the command line: ``value`` in ``unit`` ("px" or "mm")."""
+
+    value: float
+    unit: str
+
+    def pixels(self, spacing_mm: float | None, text: str) -> float:
+        """The length in pixels along an axis of spacing ``spacing_mm`` (mm/pixel)."""
+        if self.unit == "px":
+            return self.value
+        if spacing_mm is None:
+            raise RoiError(
+                f"ROI {text!r} is sized in mm but the image has no pixel spacing; "
+                "give the size in pixels"
+            )
+        return self.value / spacing_mm
+
+
+@dataclass(frozen=True, eq=False)
+class RoiSpec:
+    """A parsed ROI text; ``mask`` holds the (slices, rows, cols) array of a ``mask:`` ROI."""
+
+    text: str
+    kind: str
+    lengths: tuple[Length, ...] = ()
+    box: tuple[int, int, int, int] | None = None
+    mask: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Roi:
+    """A resolved ROI on one slice: its label (reproducible ROI text) and boolean pixel mask."""
+
+    label: str
+    mask: np.ndarray
+
+    @property
+    def n_pixels(self) -> int:
+        return int(self.mask.sum())
+
+
+def _length(token: str, text: str) -> Length:
+    m = _LENGTH.match(token.strip().lower())
+    if not m or float(m.group(1)) <= 0:
+        raise RoiError(
+            f"ROI {text!r}: size {token!r} must be a positive number of pixels or mm (e.g. 20, 15mm)"
+        )
+    return Length(float(m.group(1)), m.group(2) or "px")
+
+
+def parse_roi(text: str, mask_loader=None) -> RoiSpec:
+    """Parse one ROI text (see the module docstring); ``mask_loader(path)`` reads ``mask:`` files."""
+    kind, _, rest = text.strip().partition(":")
+    kind = kind.lower()
+    args = rest.split(":") if rest else []
+    if kind == "whole" and not args:
+        return RoiSpec(text, kind)
+    if kind == "box":
+        if len(args) != 4 or not all(re.fullmatch(r"\d+", a.strip()) for a in args):
+            raise RoiError(
+                f"ROI {text!r}: expected box:ROW:COL:HEIGHT:WIDTH with four whole numbers of "
+                "pixels (top-left corner, zero-based)"
+            )
+        row, col, height, width = (int(a) for a in args)
+        if height < 1 or width < 1:
+            raise RoiError(f"ROI {text!r}: HEIGHT and WIDTH must be at least 1 pixel")
+        return RoiSpec(text, kind, box=(row, col, height, width))
+    if kind in ("central-box", "central-circle", "phantom", "nema5"):
+        most = {"central-box": 2, "central-circle": 1, "phantom": 1, "nema5": 2}[kind]
+        least = 1 if kind.startswith("central") else 0
+        if not least <= len(args) <= most:
+            raise RoiError(f"ROI {text!r}: {kind} takes {least} to {most} size(s); see --help")
+        return RoiSpec(text, kind, lengths=tuple(_length(a, text) for a in args))
+    if kind == "mask" and rest:
+        if mask_loader is None:
+            raise RoiError(f"ROI {text!r}: mask files are not available here")
+        return RoiSpec(text, kind, mask=np.asarray(mask_loader(rest)) != 0)
+    raise RoiError(
+        f"ROI {text!r} not understood; use whole, box:ROW:COL:HEIGHT:WIDTH, central-box:SIZE, "
+        "central-circle:DIAMETER, mask:PATH, phantom[:EROSION] or nema5[:SIZE[:OFFSET]]"
+    )
+
+
+# --------------------------------------------------------------------------- phantom
+
+
+def phantom_mask(image: np.ndarray) -> np.ndarray:
+    """Phantom pixels of a 2-D image: above Otsu's threshold, largest component, holes filled."""
+    from skimage.filters import threshold_otsu
+
+    if np.ptp(image) == 0:
+        raise RoiError("automatic phantom mask: the image is uniform, no phantom to find")
+    labels, count = ndimage.label(image > threshold_otsu(image))
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    return ndimage.binary_fill_holes(labels == int(np.argmax(sizes)))
+
+
+def _eroded(mask: np.ndarray, radius_px: tuple[float, float]) -> np.ndarray:
+    """Erode ``mask`` by an ellipse of radii (rows, cols) in pixels (a disc for square pixels)."""
+    distance = ndimage.distance_transform_edt(mask, sampling=(1.0 / radius_px[0], 1.0 / radius_px[1]))
+    return distance > 1.0
+
+
+# --------------------------------------------------------------------------- resolution
+
+
+def _box_mask(shape, row: int, col: int, height: int, width: int, text: str) -> np.ndarray:
+    rows, cols = shape
+    if row < 0 or col < 0 or row + height > rows or col + width > cols:
+        raise RoiError(
+            f"ROI {text!r}: box rows {row}-{row + height - 1}, columns {col}-{col + width - 1} "
+            f"extend outside the {rows} x {cols} image"
+        )
+    mask = np.zeros(shape, dtype=bool)
+    mask[row : row + height, col : col + width] = True
+    return mask
+
+
+def _box_label(row, col, height, width) -> str:
+    return f"box:{row}:{col}:{height}:{width}"
+
+
+def _central_box(spec: RoiSpec, shape, spacing) -> Roi:
+    hl = spec.lengths[0]
+    wl = spec.lengths[1] if len(spec.lengths) > 1 else hl
+    height = int(round(hl.pixels(spacing[0] if spacing else None, spec.text)))
+    width = int(round(wl.pixels(spacing[1] if spacing else None, spec.text)))
+    if height < 1 or width < 1 or height > shape[0] or width > shape[1]:
+        raise RoiError(
+            f"ROI {spec.text!r}: a {height} x {width} pixel box does not fit the "
+            f"{shape[0]} x {shape[1]} image"
+        )
+    row, col = (shape[0] - height) // 2, (shape[1] - width) // 2
+    box = (row, col, height, width)
+    return Roi(f"{spec.text} = {_box_label(*box)}", _box_mask(shape, *box, spec.text))
+
+
+def _central_circle(spec: RoiSpec, shape, spacing) -> Roi:
+    d = spec.lengths[0]
+    radius = (
+        d.pixels(spacing[0] if spacing else None, spec.text) / 2,
+        d.pixels(spacing[1] if spacing else None, spec.text) / 2,
+    )
+    r, c = np.ogrid[: shape[0], : shape[1]]
+    centre = ((shape[0] - 1) / 2, (shape[1] - 1) / 2)
+    mask = ((r - centre[0]) / radius[0]) ** 2 + ((c - centre[1]) / radius[1]) ** 2 <= 1.0
+    if 2 * radius[0] > shape[0] or 2 * radius[1] > shape[1]:
+        raise RoiError(
+            f"ROI {spec.text!r}: a circle {2 * radius[0]:.1f} x {2 * radius[1]:.1f} pixels across "
+            f"does not fit the {shape[0]} x {shape[1]} image"
+        )
+    return Roi(spec.text, mask)
+
+
+def _nema5(spec: RoiSpec, image: np.ndarray, spacing) -> tuple[Roi, ...]:
+    size_l = spec.lengths[0] if spec.lengths else Length(NEMA5_SIZE_PX, "px")
+    off_l = spec.lengths[1] if len(spec.lengths) > 1 else Length(NEMA5_OFFSET_PX, "px")
+    sr, sc = spacing if spacing else (None, None)
+    size = (int(round(size_l.pixels(sr, spec.text))), int(round(size_l.pixels(sc, spec.text))))
+    offset = (int(round(off_l.pixels(sr, spec.text))), int(round(off_l.pixels(sc, spec.text))))
+    phantom = phantom_mask(image)
+    centre = np.rint(ndimage.center_of_mass(phantom)).astype(int)
+    rois = []
+    for name, (dr, dc) in zip(
+        ("centre", "upper-left", "lower-left", "upper-right", "lower-right"),
+        ((0, 0), (-1, -1), (1, -1), (-1, 1), (1, 1)),
+    ):
+        box = (
+            int(centre[0] + dr * offset[0] - size[0] // 2),
+            int(centre[1] + dc * offset[1] - size[1] // 2),
+            size[0],
+            size[1],
+        )
+        label = f"nema5 {name} {_box_label(*box)}"
+        mask = _box_mask(image.shape, *box, label)
+        if not phantom[mask].all():
+            raise RoiError(
+                f"ROI {spec.text!r}: the {name} box {_box_label(*box)} reaches outside the phantom "
+                f"(centre row {centre[0]}, column {centre[1]}); use smaller nema5:SIZE:OFFSET "
+                "or explicit boxes"
+            )
+        rois.append(Roi(label, mask))
+    return tuple(rois)
+
+
+def _mask_roi(spec: RoiSpec, shape, slice_index: int) -> Roi:
+    mask = spec.mask if spec.mask.ndim == 3 else spec.mask[np.newaxis]
+    if mask.shape[1:] != shape or (mask.shape[0] != 1 and slice_index >= mask.shape[0]):
+        raise RoiError(
+            f"ROI {spec.text!r}: mask of shape {mask.shape} does not match the image "
+            f"({shape[0]} x {shape[1]} pixels, slice {slice_index})"
+        )
+    return Roi(spec.text, mask[0] if mask.shape[0] == 1 else mask[slice_index])
+
+
+def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0) -> tuple[Roi, ...]:
+    """The pixel mask(s) of ``spec`` on the 2-D ``image`` (slice ``slice_index`` of its volume).
+
+    ``spacing`` is (row, col) in mm or None. ROIs with fewer than two pixels, or reaching outside
+    the image, raise :class:`RoiError`.
+    """
+    shape = image.shape
+    if spec.kind == "whole":
+        rois = (Roi("whole", np.ones(shape, dtype=bool)),)
+    elif spec.kind == "box":
+        rois = (Roi(spec.text, _box_mask(shape, *spec.box, spec.text)),)
+    elif spec.kind == "central-box":
+        rois = (_central_box(spec, shape, spacing),)
+    elif spec.kind == "central-circle":
+        rois = (_central_circle(spec, shape, spacing),)
+    elif spec.kind == "phantom":
+        erosion = spec.lengths[0] if spec.lengths else Length(PHANTOM_EROSION_PX, "px")
+        radius = (
+            erosion.pixels(spacing[0] if spacing else None, spec.text),
+            erosion.pixels(spacing[1] if spacing else None, spec.text),
+        )
+        rois = (Roi(spec.text, _eroded(phantom_mask(image), radius)),)
+    elif spec.kind == "nema5":
+        rois = _nema5(spec, image, spacing)
+    else:
+        rois = (_mask_roi(spec, shape, slice_index),)
+    for roi in rois:
+        if roi.n_pixels < 2:
+            raise RoiError(f"ROI {roi.label!r} holds {roi.n_pixels} pixel(s); it needs at least 2")
+    return rois
