@@ -244,9 +244,14 @@ def _line_deviation(volts: np.ndarray, gaps: np.ndarray, line: str):
         slope = (volts[..., -1] - volts[..., 0]) / (gaps[..., -1] - gaps[..., 0])
         intercept = volts[..., 0] - slope * gaps[..., 0]
     else:
-        gm = gaps.mean(axis=-1, keepdims=True)
-        vm = volts.mean(axis=-1, keepdims=True)
-        slope = (((gaps - gm) * (volts - vm)).sum(axis=-1) / ((gaps - gm) ** 2).sum(axis=-1))
+        # Trapezoid weights: the grid fit converges to the continuous least-squares line
+        # over the interval as step^2 (plain point weights would converge only as step).
+        w = np.ones(gaps.shape[-1])
+        w[[0, -1]] = 0.5
+        gm = (w * gaps).sum(axis=-1, keepdims=True) / w.sum()
+        vm = (w * volts).sum(axis=-1, keepdims=True) / w.sum()
+        slope = ((w * (gaps - gm) * (volts - vm)).sum(axis=-1)
+                 / (w * (gaps - gm) ** 2).sum(axis=-1))
         intercept = vm[..., 0] - slope * gm[..., 0]
     fit = intercept[..., None] + slope[..., None] * gaps
     span = np.abs(volts[..., -1] - volts[..., 0])
@@ -260,7 +265,8 @@ class Linearity:
     """Straight-line fit of V(gap) over [gap_lo_mm, gap_hi_mm].
 
     nonlinearity_pct: max |V - line| as % of the full-scale output span |V(hi) - V(lo)|.
-    line: "best_fit" (least-squares line over a uniform gap grid) or "endpoint" (the chord).
+    line: "best_fit" (the continuous least-squares line over the interval, evaluated on a
+    uniform gap grid with trapezoid weights) or "endpoint" (the chord).
     """
 
     gap_lo_mm: float
