@@ -22,7 +22,8 @@ import numpy as np  # noqa: E402
 
 from geometry.atomic import atomic_path  # noqa: E402
 from sensor.noise import gap_resolution_mm, noise_rms_V  # noqa: E402
-from sensor.optics import MODELS, OpticsSetup, linearity, output_voltage, working_range  # noqa: E402
+from sensor.optics import (MODELS, OpticsSetup, linearity, output_voltage,  # noqa: E402
+                           working_range)
 
 THESIS_INTERVALS = ((0.2, 1.2), (0.1, 1.5))
 COLORS = {"geometric": "tab:blue", "gaussian": "tab:orange"}
@@ -50,7 +51,8 @@ def main() -> int:
               f"nonlinearity {wr.nonlinearity_pct:.2f} %; noise at mid-range "
               f"{noise * 1e6:.2f} uV RMS in 500 Hz (ratio readout) = {res * 1e6:.2f} nm")
         for lo, hi in THESIS_INTERVALS:
-            fit, chord = (linearity(lo, hi, setup, model, line) for line in ("best_fit", "endpoint"))
+            fit, chord = (linearity(lo, hi, setup, model, line)
+                          for line in ("best_fit", "endpoint"))
             print(f"{'':9s} thesis {lo}-{hi} mm: nonlinearity {fit.nonlinearity_pct:.1f} % FS "
                   f"(best fit), {chord.nonlinearity_pct:.1f} % FS (endpoint); "
                   f"slope {fit.slope_V_per_mm:.3f} V/mm")
