@@ -1,0 +1,187 @@
+"""Files for making and solving a design (DESIGN section 9): DXF for the water-jet, STL and
+STEP of the body, and the JSON beam model.
+
+Every writer checks the design's feasibility (:func:`geometry.checks.assert_feasible`) and
+checks its own output before the file is moved into place (:func:`geometry.atomic.atomic_path`),
+so a failed export leaves no file behind. Lengths in mm.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from pathlib import Path
+
+import cadquery as cq
+import ezdxf
+import numpy as np
+import trimesh
+
+from geometry.atomic import atomic_path
+from geometry.cad import (extrude, face_loops, hinge_neck_mm, hole_count, offset_face,
+                          profile_face)
+from geometry.checks import assert_feasible
+from geometry.errors import GeometryError, ParameterError
+from geometry.layout import make_layout, make_parts
+from geometry.params import Design
+from geometry.topology import build_beam_model, model_to_json
+
+FORMATS = ("dxf", "stl", "step", "json")
+
+#: DXF layers by role: the outer contour and the through-holes (cut first, inside out).
+LAYER_OUTLINE, LAYER_HOLES = "OUTLINE", "HOLES"
+
+#: Relative volume tolerance of the STL check: the profile has only straight edges, so the
+#: tessellation is exact up to rounding; 0.1 % leaves room for arcs in a future profile.
+STL_VOLUME_RTOL = 1e-3
+
+#: Tolerance (mm) on a hinge neck left by the simulated cut: offsets of straight edges are
+#: exact, so any larger change means a notch was filled.
+NECK_TOL_MM = 1e-3
+
+
+def kerf_path(design: Design, face: cq.Face, kerf_mm: float) -> cq.Face:
+    """The jet's centre path for a cut of width ``kerf_mm``: the profile grown by half the
+    kerf (outline out, holes in), convex corners rounded.
+
+    Checks that what the jet leaves (the path shrunk back by half the kerf) keeps every gap
+    open (same number of holes) and every hinge neck at its drawn thickness and at least
+    ``min_feature_mm``; raises :class:`GeometryError` naming the kerf otherwise.
+    """
+    if not (math.isfinite(kerf_mm) and kerf_mm > 0):
+        raise ParameterError(f"kerf = {kerf_mm!r} mm: must be a positive number")
+    half = kerf_mm / 2.0
+    path = offset_face(face, half)
+    holes = hole_count(face)
+    if hole_count(path) != holes:
+        raise GeometryError(f"kerf = {kerf_mm:g} mm: a gap narrower than the kerf closes "
+                            f"(the profile's {holes} holes become {hole_count(path)})")
+    cut = offset_face(path, -half)
+    if hole_count(cut) != holes:
+        raise GeometryError(f"kerf = {kerf_mm:g} mm: the cut part would have {hole_count(cut)} "
+                            f"holes instead of {holes}")
+    for part in make_parts(make_layout(design)):
+        if part.kind != "hinge":
+            continue
+        neck = hinge_neck_mm(cut, part)
+        if neck < design.min_feature_mm or abs(neck - part.width) > NECK_TOL_MM:
+            raise GeometryError(
+                f"kerf = {kerf_mm:g} mm: hinge {part.hinge} would be cut {neck:.3f} mm thick "
+                f"instead of {part.width:g} mm (min_feature_mm = {design.min_feature_mm:g}; "
+                f"its side notches, hinge_length_mm = {design.hinge_length_mm:g}, must be "
+                "longer than the kerf)")
+    return path
+
+
+def dxf_document(face: cq.Face) -> ezdxf.document.Drawing:
+    """A DXF (R2010, $INSUNITS = mm) with the outline on layer OUTLINE and each hole on layer
+    HOLES, each one closed LWPOLYLINE of lines and arcs (bulges), 1:1 in mm."""
+    doc = ezdxf.new("R2010", units=ezdxf.units.MM)
+    doc.layers.add(LAYER_OUTLINE, color=7)
+    doc.layers.add(LAYER_HOLES, color=1)
+    msp = doc.modelspace()
+    outline, holes = face_loops(face)
+    for loop, layer in [(outline, LAYER_OUTLINE)] + [(h, LAYER_HOLES) for h in holes]:
+        msp.add_lwpolyline([tuple(v) for v in loop], format="xyb", close=True,
+                           dxfattribs={"layer": layer})
+    return doc
+
+
+def write_dxf(design: Design, path: str | Path, kerf_mm: float | None = None,
+              face: cq.Face | None = None) -> Path:
+    """Write the water-jet DXF of a design; with ``kerf_mm`` the contours are the jet's
+    centre path (see :func:`kerf_path`), without it the nominal profile."""
+    assert_feasible(design)
+    face = face or profile_face(design)
+    if kerf_mm is not None:
+        face = kerf_path(design, face, kerf_mm)
+    return _save_dxf(face, path)
+
+
+def _save_dxf(face: cq.Face, path: str | Path) -> Path:
+    doc = dxf_document(face)
+    with atomic_path(path) as tmp:
+        doc.saveas(tmp)
+    return Path(path)
+
+
+def checked_mesh(design: Design, face: cq.Face | None = None) -> trimesh.Trimesh:
+    """The body as a triangle mesh, checked: watertight, one body, and volume equal to
+    profile area x sheet thickness within :data:`STL_VOLUME_RTOL`."""
+    face = face or profile_face(design)
+    solid = extrude(face, design.sheet_thickness_mm)
+    vertices, triangles = solid.tessellate(1e-3, 0.1)
+    mesh = trimesh.Trimesh(np.array([v.toTuple() for v in vertices]), np.array(triangles),
+                           process=True)
+    expected = face.Area() * design.sheet_thickness_mm
+    if not mesh.is_watertight:
+        raise GeometryError(f"STL of {design.name!r}: mesh is not watertight")
+    if mesh.body_count != 1:
+        raise GeometryError(f"STL of {design.name!r}: mesh has {mesh.body_count} bodies, expected 1")
+    if abs(mesh.volume - expected) > STL_VOLUME_RTOL * expected:
+        raise GeometryError(f"STL of {design.name!r}: volume {mesh.volume:.3f} mm^3 differs from "
+                            f"area x thickness = {expected:.3f} mm^3 by more than 0.1 %")
+    return mesh
+
+
+def write_stl(design: Design, path: str | Path, face: cq.Face | None = None) -> Path:
+    """Write the checked STL (binary, mm) of the body."""
+    assert_feasible(design)
+    return _save_mesh(checked_mesh(design, face), path)
+
+
+def _save_mesh(mesh: trimesh.Trimesh, path: str | Path) -> Path:
+    with atomic_path(path) as tmp:
+        mesh.export(tmp, file_type="stl")
+    return Path(path)
+
+
+def write_step(design: Design, path: str | Path, face: cq.Face | None = None) -> Path:
+    """Write the body as STEP (mm)."""
+    assert_feasible(design)
+    solid = extrude(face or profile_face(design), design.sheet_thickness_mm)
+    with atomic_path(path) as tmp:
+        if not solid.exportStep(str(tmp)):
+            raise OSError(f"could not write STEP file {path}")
+    return Path(path)
+
+
+def write_json(design: Design, path: str | Path) -> Path:
+    """Write the beam model (schema ``dacm-beam-model/1``, see :mod:`geometry.topology`)."""
+    assert_feasible(design)
+    with atomic_path(path) as tmp:
+        tmp.write_text(model_to_json(build_beam_model(design)) + "\n")
+    return Path(path)
+
+
+def export_design(design: Design, out_dir: str | Path, formats: Iterable[str] = FORMATS,
+                  kerf_mm: float | None = None) -> list[Path]:
+    """Write the chosen formats as ``<out_dir>/<design.name>.<ext>``; return the paths.
+
+    Everything is built and checked before the first file is written, so a bad design or
+    kerf writes nothing.
+    """
+    formats = list(dict.fromkeys(formats))
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown:
+        raise ParameterError(f"format {unknown[0]!r}: must be one of {', '.join(FORMATS)}")
+    out = Path(out_dir)
+    if not out.is_dir():
+        raise FileNotFoundError(f"output folder does not exist: {out}")
+    assert_feasible(design)
+    face = profile_face(design)
+    dxf_face = kerf_path(design, face, kerf_mm) if kerf_mm is not None and "dxf" in formats else face
+    mesh = checked_mesh(design, face) if "stl" in formats else None
+    written = []
+    for fmt in formats:
+        path = out / f"{design.name}.{fmt}"
+        if fmt == "dxf":
+            _save_dxf(dxf_face, path)
+        elif fmt == "stl":
+            _save_mesh(mesh, path)
+        elif fmt == "step":
+            write_step(design, path, face)
+        else:
+            write_json(design, path)
+        written.append(path)
+    return written
