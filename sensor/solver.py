@@ -1,0 +1,560 @@
+"""The iterative nonlinear Castigliano chain-algorithm solver (thesis section 6.2.1).
+
+How the thesis' method maps onto the code:
+
+* eqs 80-82: each compliant member's tip deflections (dx, dy) and rotation under tip forces
+  N, V and moment M, from Castigliano's theorem with bending, axial and shear terms (shear
+  form factor 6/5 of a rectangle, G = E / 2(1 + nu)). That is the member's flexibility
+  matrix (:func:`cantilever_flexibility`); its inverse, written in the member's chord frame,
+  is the member stiffness (:func:`natural_stiffness`).
+* eqs 83-84: member tips are chained: each member's tip position is its root plus its chord
+  rotated by the accumulated rotations, i.e. the geometry is updated with large rotations.
+  Here every member is followed in its own rotating (co-rotational) chord frame, so the
+  chained tip positions are exact for any rotation.
+* eqs 85-86: equilibrium at every joint plus loop closure of the chains form one square
+  system. Rigid plates and blocks are merged into rigid bodies with three unknowns each, and
+  the system is solved for joint displacements (the displacement form of the same equations).
+* Figure 47: the load is applied in increments and the geometry updated after each; the
+  run stops when the output port reaches the target travel (the increments are taken in
+  output travel, so the target is met exactly) or the input force reaches a target. Newton
+  equilibrium corrections at every increment remove the drift of a purely incremental
+  scheme, so the answer does not depend on the increment size.
+
+Many designs of the same topology (a sweep) are solved together: every array carries a
+leading batch axis. Units: mm, N, MPa, mJ (N mm).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.integrate import simpson
+
+from geometry.topology import BeamModel
+from sensor.errors import SensorError
+
+SHEAR_FORM_FACTOR = 6.0 / 5.0  # rectangle, in the shear term of eqs 80-81
+
+
+class SolverError(SensorError):
+    """A solve that failed: the message names the increment, the load and the residual."""
+
+
+class SingularSystemError(SolverError):
+    """The assembled system of eqs 85-86 is singular (a mechanism, or a missing support)."""
+
+
+class SnapThroughError(SolverError):
+    """The input force fell while the output travel grew: a limit point (snap-through)."""
+
+
+class UnreachableTargetError(SolverError):
+    """The output cannot reach the target travel (it moves the wrong way or stalls)."""
+
+
+class ConvergenceError(SolverError):
+    """The equilibrium residual would not fall below the tolerance."""
+
+
+# --- member stiffness from Castigliano (eqs 80-82) -----------------------------------------
+
+def cantilever_flexibility(L, t, b, E, G):
+    """Tip flexibility of a cantilever of length L, section t x b (mm), moduli E, G (MPa).
+
+    Returns C (..., 3, 3) with [dx, dy, dtheta] = C [N, V, M] in the member frame: the
+    integrals of eqs 80-82 for tip loads (bending M(s) = M + V (L - s), axial N, shear V).
+    """
+    L, t, b, E, G = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (L, t, b, E, G)))
+    A = t * b
+    EI = E * b * t**3 / 12.0
+    C = np.zeros(L.shape + (3, 3))
+    C[..., 0, 0] = L / (E * A)
+    C[..., 1, 1] = L**3 / (3 * EI) + SHEAR_FORM_FACTOR * L / (G * A)
+    C[..., 1, 2] = C[..., 2, 1] = L**2 / (2 * EI)
+    C[..., 2, 2] = L / EI
+    return C
+
+
+def natural_stiffness(L, t, b, E, G):
+    """Member stiffness (..., 3, 3) on the chord-frame deformations [u, theta_a, theta_b].
+
+    u is the chord's stretch, theta_a and theta_b the end rotations relative to the chord.
+    A cantilever clamped at a has tip deflection v = -L theta_a and tip rotation
+    theta_b - theta_a, so K = T^T C^-1 T with T mapping [u, theta_a, theta_b] to [dx, v, theta].
+    """
+    C = cantilever_flexibility(L, t, b, E, G)
+    K = np.linalg.inv(C)
+    L = np.asarray(L, dtype=float)
+    T = np.zeros(L.shape + (3, 3))
+    T[..., 0, 0] = 1.0
+    T[..., 1, 1] = -L
+    T[..., 2, 1] = -1.0
+    T[..., 2, 2] = 1.0
+    return np.swapaxes(T, -1, -2) @ K @ T
+
+
+# --- topology: rigid bodies, dofs and the scatter maps ----------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Topology:
+    """What a batch of designs with the same connectivity shares."""
+
+    n_nodes: int
+    body_of_node: np.ndarray      # (n,) rigid-body (cluster) index of each node
+    master_of_body: np.ndarray    # (c,) the node whose position and rotation a body carries
+    free_body: np.ndarray         # (c,) False for bodies held by a support
+    dof_of_body: np.ndarray       # (c, 3) reduced dof index, -1 if fixed
+    n_dof: int
+    flex: np.ndarray              # (e,) member indices of the compliant members
+    ea: np.ndarray                # (e,) start node
+    eb: np.ndarray                # (e,) end node
+    elem_dofs: np.ndarray         # (e, 6) reduced dof indices (-1 fixed) of the element ends
+    scatter_K: sp.csr_matrix      # (n_dof^2, e*36)
+    scatter_f: sp.csr_matrix      # (n_dof, e*6)
+    input_node: int
+    output_node: int
+    dof_weight: np.ndarray        # (n_dof,) 1 for forces, 1 / size for moments (residual norm)
+    free_body_dof: tuple          # (body, k) index arrays of the free dofs, in dof order
+
+
+def _bodies(model: BeamModel) -> tuple[np.ndarray, np.ndarray]:
+    """Union the nodes joined by rigid members into rigid bodies."""
+    parent = list(range(len(model.nodes)))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for kind, (a, b) in zip(model.member_kind, model.member_nodes):
+        if kind == "rigid":
+            ra, rb = find(int(a)), find(int(b))
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([find(i) for i in range(len(parent))])
+    masters, body = np.unique(roots, return_inverse=True)
+    return body, masters
+
+
+def prepare(model: BeamModel) -> Topology:
+    """Rigid bodies, dof numbering and scatter maps of a model's connectivity."""
+    body, masters = _bodies(model)
+    nb = len(masters)
+    fixed = np.zeros((nb, 3), dtype=bool)
+    for node, dofs in model.supports:
+        c = body[node]
+        if len(body[body == c]) > 1 and set(dofs) != {"x", "y", "rz"}:
+            if node != masters[c]:
+                raise SingularSystemError(
+                    f"support at node {node} fixes only {dofs} on a rigid body: clamp it or "
+                    "put the support on the body's first node")
+        for dof in dofs:
+            fixed[c, "x y rz".split().index(dof)] = True
+    # a body with all three dofs fixed is held; partially held bodies keep their free dofs
+    dof_of_body = -np.ones((nb, 3), dtype=int)
+    dof_of_body[~fixed] = np.arange(int((~fixed).sum()))
+    n_dof = int((~fixed).sum())
+    flex = np.array([i for i, k in enumerate(model.member_kind) if k != "rigid"], dtype=int)
+    if len(flex) == 0:
+        raise SingularSystemError("the model has no compliant member")
+    ea, eb = model.member_nodes[flex, 0], model.member_nodes[flex, 1]
+    elem_dofs = np.concatenate([dof_of_body[body[ea]], dof_of_body[body[eb]]], axis=1)
+    e = len(flex)
+    # scatter maps: element entries -> reduced global entries (entries on fixed dofs dropped)
+    ii, jj = np.meshgrid(np.arange(6), np.arange(6), indexing="ij")
+    rows = elem_dofs[:, ii.ravel()]                     # (e, 36)
+    cols = elem_dofs[:, jj.ravel()]
+    src = np.arange(e * 36).reshape(e, 36)
+    keep = (rows >= 0) & (cols >= 0)
+    scatter_K = sp.csr_matrix((np.ones(keep.sum()), ((rows * n_dof + cols)[keep], src[keep])),
+                              shape=(n_dof * n_dof, e * 36))
+    keep_f = elem_dofs >= 0
+    scatter_f = sp.csr_matrix((np.ones(keep_f.sum()), (elem_dofs[keep_f], np.arange(e * 6).reshape(e, 6)[keep_f])),
+                              shape=(n_dof, e * 6))
+    size = float(np.ptp(model.nodes, axis=0).max()) or 1.0
+    weight = np.where(np.arange(n_dof) == -1, 0.0, 1.0)
+    weight[dof_of_body[:, 2][dof_of_body[:, 2] >= 0]] = 1.0 / size
+    fb, fk = np.nonzero(dof_of_body >= 0)
+    order = np.argsort(dof_of_body[fb, fk])
+    return Topology(len(model.nodes), body, masters, ~fixed.all(1), dof_of_body, n_dof, flex,
+                    ea, eb, elem_dofs, scatter_K, scatter_f, model.input_node, model.output_node,
+                    weight, (fb[order], fk[order]))
+
+
+# --- the state of a batch ----------------------------------------------------------------
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+@dataclass(frozen=True, eq=False)
+class _Batch:
+    """Per-design constants of a batch: undeformed geometry and member stiffnesses."""
+
+    X: np.ndarray        # (B, n, 2) undeformed node positions
+    r0: np.ndarray       # (B, n, 2) node offsets from their body's master node
+    L0: np.ndarray       # (B, e) undeformed member lengths
+    beta0: np.ndarray    # (B, e) undeformed chord angles
+    Kn: np.ndarray       # (B, e, 3, 3) natural member stiffness
+    f_in: np.ndarray     # (B, 2) unit input force direction
+    d_out: np.ndarray    # (B, 2) output travel direction
+    d_in: np.ndarray     # (B, 2)
+
+
+def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
+    X = np.stack([m.nodes for m in models])
+    r0 = X - X[:, topo.master_of_body[topo.body_of_node]]
+    d = X[:, topo.eb] - X[:, topo.ea]
+    L0 = np.linalg.norm(d, axis=-1)
+    beta0 = np.arctan2(d[..., 1], d[..., 0])
+    t = np.stack([m.thickness_mm[topo.flex] for m in models])
+    b = np.stack([m.depth_mm[topo.flex] for m in models])
+    E = np.array([m.E_MPa for m in models])[:, None]
+    G = E / (2 * (1 + np.array([m.nu for m in models])[:, None]))
+    Kn = natural_stiffness(L0, t, b, E, G)
+    f_in = np.stack([m.input_direction for m in models])
+    d_out = np.stack([m.output_direction for m in models])
+    return _Batch(X, r0, L0, beta0, Kn, f_in, d_out, f_in)
+
+
+def _node_state(topo: Topology, bt: _Batch, q: np.ndarray):
+    """Displacements (B, n, 2), rotations (B, n) and current offsets rho (B, n, 2) of all nodes.
+
+    q (B, c, 3) holds each body's translation and rotation (fixed bodies stay zero). The
+    displacement is formed without subtracting positions, so it keeps full precision.
+    """
+    qn = q[:, topo.body_of_node]                       # (B, n, 3)
+    s = np.sin(qn[..., 2])
+    cm1 = -2.0 * np.sin(qn[..., 2] / 2) ** 2           # cos - 1 without cancellation
+    turn = np.stack([cm1 * bt.r0[..., 0] - s * bt.r0[..., 1], s * bt.r0[..., 0] + cm1 * bt.r0[..., 1]], -1)
+    return qn[..., :2] + turn, qn[..., 2], bt.r0 + turn
+
+
+def _elements(topo: Topology, bt: _Batch, node_state):
+    """Chord-frame deformations, forces, and the element tangent and force in body dofs."""
+    u, th, rho = node_state
+    d0 = bt.X[:, topo.eb] - bt.X[:, topo.ea]
+    du = u[:, topo.eb] - u[:, topo.ea]
+    d = d0 + du                                        # (B, e, 2) current chords
+    Ln = np.sqrt(np.sum(d * d, -1))
+    stretch = (2 * np.sum(d0 * du, -1) + np.sum(du * du, -1)) / (Ln + bt.L0)
+    c, s = d[..., 0] / Ln, d[..., 1] / Ln
+    alpha = _wrap(np.arctan2(s, c) - bt.beta0)
+    defo = np.stack([stretch, _wrap(th[:, topo.ea] - alpha), _wrap(th[:, topo.eb] - alpha)], -1)
+    qf = (bt.Kn @ defo[..., None])[..., 0]              # (B, e, 3): N, M_a, M_b
+    zero = np.zeros_like(c)
+    r = np.stack([-c, -s, zero, c, s, zero], -1)         # d(stretch)/dx
+    z = np.stack([s, -c, zero, -s, c, zero], -1)         # Ln * d(chord angle)/dx
+    zl = z / Ln[..., None]
+    Bm = np.stack([r, -zl, -zl], -2)                     # (B, e, 3, 6)
+    Bm[..., 1, 2] += 1.0
+    Bm[..., 2, 5] += 1.0
+    f = (np.swapaxes(Bm, -1, -2) @ qf[..., None])[..., 0]  # (B, e, 6) node-dof forces
+    K = np.swapaxes(Bm, -1, -2) @ bt.Kn @ Bm
+    K += (qf[..., 0] / Ln)[..., None, None] * (z[..., :, None] * z[..., None, :])
+    rz = r[..., :, None] * z[..., None, :]
+    K += ((qf[..., 1] + qf[..., 2]) / Ln**2)[..., None, None] * (rz + np.swapaxes(rz, -1, -2))
+    # node dofs -> body dofs: x_node = x_master + rho, so d x_node / d theta_body = perp(rho).
+    # T = I plus perp(rho) in columns 2 and 5; K_body = T^T K T (+ the turning of rho).
+    ra, rb = rho[:, topo.ea], rho[:, topo.eb]
+    for col, (px, py) in ((2, (-ra[..., 1], ra[..., 0])), (5, (-rb[..., 1], rb[..., 0]))):
+        base = col - 2
+        K[..., :, col] += K[..., :, base] * px[..., None] + K[..., :, base + 1] * py[..., None]
+        K[..., col, :] += K[..., base, :] * px[..., None] + K[..., base + 1, :] * py[..., None]
+        f[..., col] += f[..., base] * px + f[..., base + 1] * py
+    K[..., 2, 2] -= np.sum(ra * f[..., 0:2], -1)
+    K[..., 5, 5] -= np.sum(rb * f[..., 3:5], -1)
+    return defo, qf, f, K
+
+
+def _assemble(topo: Topology, f_body: np.ndarray, K: np.ndarray):
+    B = f_body.shape[0]
+    F = (topo.scatter_f @ f_body.reshape(B, -1).T).T
+    Kg = (topo.scatter_K @ K.reshape(B, -1).T).T.reshape(B, topo.n_dof, topo.n_dof)
+    return F, Kg
+
+
+def _port(topo: Topology, node_state, node: int, direction: np.ndarray):
+    """Travel of a node along a direction (B,) and its gradient in reduced dofs (B, n_dof)."""
+    u, th, rho = node_state
+    travel = np.sum(u[:, node] * direction, -1)
+    g = np.zeros((u.shape[0], topo.n_dof))
+    dofs = topo.dof_of_body[topo.body_of_node[node]]
+    g_body = (direction[:, 0], direction[:, 1],
+              -rho[:, node, 1] * direction[:, 0] + rho[:, node, 0] * direction[:, 1])
+    for k in range(3):
+        if dofs[k] >= 0:
+            g[:, dofs[k]] = g_body[k]
+    return travel, g, rho[:, node]
+
+
+def _apply(topo: Topology, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+    q = q.copy()
+    body, k = topo.free_body_dof
+    q[:, body, k] += dq
+    return q
+
+
+# --- results ---------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class SolveResult:
+    """The solved state of one design (mm, N, mJ).
+
+    ``force_N``, ``input_mm`` and ``output_mm`` are the force-deflection curves of the input
+    and output ports, one point per increment (starting at zero). ``member_forces`` holds,
+    per compliant member, the axial force N (N) and the end moments M_a, M_b (N mm);
+    ``hinge_rotation_deg`` the bending of each hinge (end rotation b minus a), keyed by
+    thesis hinge number.
+    """
+
+    amplification: float          # A = output travel / input travel
+    k_out_N_per_mm: float         # input force / output travel
+    strain_energy_mJ: float       # total strain energy in the final state
+    input_force_N: float
+    input_travel_mm: float
+    output_travel_mm: float
+    force_N: np.ndarray
+    input_mm: np.ndarray
+    output_mm: np.ndarray
+    work_mJ: float                # work of the input force along the load path (Simpson)
+    hinge_rotation_deg: dict
+    member_forces: np.ndarray     # (e, 3): N, M_a, M_b
+    member_index: np.ndarray      # (e,) model member index of each row of member_forces
+    deformed_nodes: np.ndarray    # (n, 2)
+    node_rotation_rad: np.ndarray  # (n,)
+    increments: int
+    residual: float               # final relative equilibrium residual
+    converged: bool
+
+    @property
+    def sensitivity_mm_per_N(self) -> float:
+        """Output travel per input force, mm/N (the inverse of k_out)."""
+        return 1.0 / self.k_out_N_per_mm
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Increments, tolerances and limits of a solve."""
+
+    increments: int = 4
+    tol: float = 1e-9               # relative residual |r| / |F_ext|
+    max_iterations: int = 25
+    max_bisections: int = 4
+    max_force_N: float = 1e4        # beyond this the target is deemed unreachable
+
+
+def solve(model: BeamModel, target_output_mm: float | None = None, target_force_N: float | None = None,
+          options: SolverOptions = SolverOptions()) -> SolveResult:
+    """Solve one beam model to an output travel (1 mm if neither target is given) or an
+    input force.
+
+    Raises a :class:`SolverError` subclass when the solve fails; never returns a result
+    that is not converged.
+    """
+    results, errors = solve_batch([model], target_output_mm, target_force_N, options)
+    if errors[0] is not None:
+        raise errors[0]
+    return results[0]
+
+
+def solve_batch(models: list[BeamModel], target_output_mm: float | None = None,
+                target_force_N: float | None = None, options: SolverOptions = SolverOptions()):
+    """Solve many models of one connectivity together.
+
+    Returns (results, errors): per model a :class:`SolveResult` or None, and None or the
+    :class:`SolverError` that stopped it.
+    """
+    if target_output_mm is None and target_force_N is None:
+        target_output_mm = 1.0
+    if target_output_mm is not None and target_force_N is not None:
+        raise SensorError("give one of target_output_mm and target_force_N, not both")
+    target = target_output_mm if target_force_N is None else target_force_N
+    if not (np.isfinite(target) and target > 0):
+        name = "target_output_mm" if target_force_N is None else "target_force_N"
+        raise SensorError(f"{name} = {target!r}: must be a positive finite number")
+    topo = prepare(models[0])
+    for m in models[1:]:
+        if m.member_nodes.shape != models[0].member_nodes.shape or not np.array_equal(
+                m.member_nodes, models[0].member_nodes) or m.member_kind != models[0].member_kind:
+            raise SensorError("solve_batch needs models of one connectivity")
+    bt = _make_batch(topo, models)
+    return _Run(topo, bt, models, options, displacement_control=target_force_N is None, target=target).run()
+
+
+class _Run:
+    """One incremental-iterative run of a batch (Figure 47, with Newton corrections)."""
+
+    def __init__(self, topo, bt, models, options, displacement_control, target):
+        self.topo, self.bt, self.models, self.o = topo, bt, models, options
+        self.disp = displacement_control
+        self.target = target
+        self.B = len(models)
+
+    def residual(self, q, lam):
+        """Out-of-balance forces, tangent, and both ports' travel and gradient at state q."""
+        ns = _node_state(self.topo, self.bt, q)
+        defo, qf, f_body, Ke = _elements(self.topo, self.bt, ns)
+        F, K = _assemble(self.topo, f_body, Ke)
+        u_in, g_in, rho_in = _port(self.topo, ns, self.topo.input_node, self.bt.f_in)
+        u_out, g_out, _ = _port(self.topo, ns, self.topo.output_node, self.bt.d_out)
+        # dead load lam * f_in at the input node: generalized force g_in (its moment arm turns
+        # with the body, which adds -d(g_in)/dq to the tangent)
+        r = F - lam[:, None] * g_in
+        dofs = self.topo.dof_of_body[self.topo.body_of_node[self.topo.input_node]]
+        if dofs[2] >= 0:
+            K[:, dofs[2], dofs[2]] += lam * np.sum(rho_in * self.bt.f_in, -1)
+        return r, K, g_in, u_out, g_out
+
+    def run(self):
+        topo, B, o = self.topo, self.B, self.o
+        nb = len(topo.master_of_body)
+        q = np.zeros((B, nb, 3))
+        lam = np.zeros(B)
+        errors: list = [None] * B
+        alive = np.ones(B, dtype=bool)
+        hist_F, hist_in, hist_out = [np.zeros(B)], [np.zeros(B)], [np.zeros(B)]
+        step = 1.0 / o.increments
+        level = 0.0
+        lam_scale = np.ones(B)  # a force scale for the residual norm, from the first step
+        prev = None
+        residual = np.zeros(B)
+        n_inc = 0
+        while level < 1.0 - 1e-12 and alive.any():
+            new_level = min(1.0, level + step)
+            goal = new_level * self.target
+            # predictor: secant extrapolation from the last two converged states
+            if prev is not None:
+                frac = (new_level - level) / (level - prev[2])
+                q_try = q + frac * (q - prev[0])
+                lam_try = lam + frac * (lam - prev[1])
+            else:
+                q_try, lam_try = q.copy(), lam.copy()
+            ok, q_new, lam_new, res = self.newton(q_try, lam_try, goal, alive, lam_scale,
+                                                  verify=new_level >= 1.0 - 1e-12)
+            if not ok[alive].all():
+                if step > 1.0 / o.increments / 2**o.max_bisections:
+                    step /= 2
+                    continue
+                bad = alive & ~ok
+                for b in np.flatnonzero(bad):
+                    errors[b] = ConvergenceError(
+                        f"increment {n_inc + 1}: residual {res[b]:.3e} would not fall below "
+                        f"{o.tol:g} at input force {lam_new[b]:.4g} N (target {goal:.4g})")
+                alive &= ~bad
+                if not alive.any():
+                    break
+            n_inc += 1
+            ns = _node_state(topo, self.bt, q_new)
+            u_in, _, _ = _port(topo, ns, topo.input_node, self.bt.d_in)
+            u_out, _, _ = _port(topo, ns, topo.output_node, self.bt.d_out)
+            for b in np.flatnonzero(alive):
+                if self.disp and lam_new[b] <= hist_F[-1][b]:
+                    errors[b] = SnapThroughError(
+                        f"increment {n_inc}: input force fell from {hist_F[-1][b]:.4g} N to "
+                        f"{lam_new[b]:.4g} N while the output travel rose to {u_out[b]:.4g} mm "
+                        f"(residual {res[b]:.2e}): limit point, the reading would be ambiguous")
+                    alive[b] = False
+                elif abs(lam_new[b]) > o.max_force_N or (not self.disp and u_out[b] <= hist_out[-1][b]):
+                    errors[b] = UnreachableTargetError(
+                        f"increment {n_inc}: output travel {u_out[b]:.4g} mm at input force "
+                        f"{lam_new[b]:.4g} N (residual {res[b]:.2e}): the target cannot be reached")
+                    alive[b] = False
+            prev = (q, lam, level)
+            q, lam, level = q_new, lam_new, new_level
+            residual = np.where(alive, res, residual)
+            if n_inc == 1:
+                lam_scale = np.maximum(np.abs(lam), 1e-12) / new_level
+            hist_F.append(lam.copy()); hist_in.append(u_in); hist_out.append(u_out)
+            step = min(step * 2, 1.0 / o.increments)
+        return self.collect(q, lam, np.array(hist_F), np.array(hist_in), np.array(hist_out),
+                            residual, alive, errors, n_inc)
+
+    def newton(self, q, lam, goal, alive, lam_scale, verify=True):
+        """Equilibrium iterations at one increment; returns (ok, q, lam, residual).
+
+        Without ``verify`` (intermediate increments) the state is accepted after a correction
+        made from a residual below 1e-6: Newton's quadratic convergence leaves about 1e-12.
+        The last increment is always verified by evaluating the residual it reports.
+        """
+        o, topo = self.o, self.topo
+        nd = topo.n_dof
+        res = np.full(self.B, np.inf)
+        for _ in range(o.max_iterations):
+            w = topo.dof_weight
+            if self.disp:
+                r, K, g_in, u_out, g_out = self.residual(q, lam)
+                scale = np.maximum(np.abs(lam), lam_scale * 1e-3) * np.linalg.norm(g_in * w, axis=1)
+                c = u_out - goal
+                res = np.maximum(np.linalg.norm(r * w, axis=1) / scale, np.abs(c) / max(self.target, 1e-12))
+                A = np.zeros((self.B, nd + 1, nd + 1))
+                A[:, :nd, :nd] = K
+                A[:, :nd, nd] = -g_in
+                A[:, nd, :nd] = g_out
+                rhs = -np.concatenate([r, c[:, None]], axis=1)
+            else:
+                lam = np.full(self.B, goal)
+                r, K, g_in, _, _ = self.residual(q, lam)
+                res = np.linalg.norm(r * w, axis=1) / (goal * np.linalg.norm(g_in * w, axis=1))
+                A, rhs = K, -r
+            done = (res < o.tol) | ~alive
+            if done.all():
+                return np.ones(self.B, bool), q, lam, res
+            try:
+                sol = np.linalg.solve(A, rhs[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                sol = np.full(rhs.shape, np.nan)
+                for b in range(self.B):
+                    try:
+                        sol[b] = np.linalg.solve(A[b], rhs[b])
+                    except np.linalg.LinAlgError:
+                        pass
+            if not np.isfinite(sol[~done]).all():
+                bad = ~np.isfinite(sol).all(1) & ~done
+                if bad.any() and self.B == 1:
+                    raise SingularSystemError(
+                        f"the system of eqs 85-86 is singular at input force {lam[0]:.4g} N "
+                        f"(residual {res[0]:.2e}): the model is a mechanism or lacks a support")
+                sol[bad] = 0.0
+            sol[done] = 0.0
+            q = _apply(topo, q, sol[:, :nd])
+            if self.disp:
+                lam = lam + sol[:, nd]
+            if not verify and ((res < 1e-6) | ~alive).all():
+                return np.ones(self.B, bool), q, lam, res
+        return res < o.tol, q, lam, res
+
+    def collect(self, q, lam, F, u_in, u_out, residual, alive, errors, n_inc):
+        topo, bt = self.topo, self.bt
+        u, th, rho = ns = _node_state(topo, bt, q)
+        x = bt.X + u
+        defo, qf, _, _ = _elements(topo, bt, ns)
+        se = 0.5 * np.einsum("bei,beij,bej->b", defo, bt.Kn, defo)
+        work = simpson(F, x=u_in, axis=0)
+        results = []
+        for b in range(self.B):
+            if not alive[b]:
+                results.append(None)
+                continue
+            m = self.models[b]
+            hinge = m.hinge_number[topo.flex]
+            rot = {int(h): float(np.degrees(defo[b, i, 2] - defo[b, i, 1]))
+                   for i, h in enumerate(hinge) if h > 0}
+            A = u_out[-1, b] / u_in[-1, b]
+            results.append(SolveResult(
+                amplification=float(A), k_out_N_per_mm=float(lam[b] / u_out[-1, b]),
+                strain_energy_mJ=float(se[b]), input_force_N=float(lam[b]),
+                input_travel_mm=float(u_in[-1, b]), output_travel_mm=float(u_out[-1, b]),
+                force_N=F[:, b].copy(), input_mm=u_in[:, b].copy(), output_mm=u_out[:, b].copy(),
+                work_mJ=float(work[b]), hinge_rotation_deg=dict(sorted(rot.items())),
+                member_forces=qf[b].copy(), member_index=topo.flex.copy(),
+                deformed_nodes=x[b].copy(), node_rotation_rad=th[b].copy(), increments=n_inc,
+                residual=float(residual[b]), converged=True))
+            if u_in[-1, b] <= 0 and self.disp:
+                errors[b] = UnreachableTargetError(
+                    f"increment {n_inc}: input travel {u_in[-1, b]:.4g} mm is not positive at "
+                    f"input force {lam[b]:.4g} N (residual {residual[b]:.2e})")
+                results[-1] = None
+        return results, errors
