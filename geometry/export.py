@@ -67,9 +67,9 @@ def kerf_path(design: Design, face: cq.Face, kerf_mm: float) -> cq.Face:
         if neck < design.min_feature_mm or abs(neck - part.width) > NECK_TOL_MM:
             raise GeometryError(
                 f"kerf = {kerf_mm:g} mm: hinge {part.hinge} would be cut {neck:.3f} mm thick "
-                f"instead of {part.width:g} mm (min_feature_mm = {design.min_feature_mm:g}; "
-                f"its side notches, hinge_length_mm = {design.hinge_length_mm:g}, must be "
-                "longer than the kerf)")
+                f"instead of {part.width:g} mm (min_feature_mm = {design.min_feature_mm:g}): the "
+                f"jet's corner rounding reaches the middle of the neck; hinge_length_mm = "
+                f"{design.hinge_length_mm:g} is too short for this kerf")
     return path
 
 

@@ -1,0 +1,80 @@
+"""The design-selection flags shared by every command that works on one design.
+
+A design comes from exactly one source: the flags ``--design basis|proposed --phi1 --phi2
+--hinges`` (the default: the proposed body at phi1 = 22, phi2 = 17.2 deg, hinge set 05-03),
+a thesis preset (``--preset sample-a``), or a TOML file (``--config design.toml``).
+``--material`` overrides the material of any of them.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from geometry.errors import ParameterError
+from geometry.params import HINGE_SETS, MATERIALS, PRESETS, Design, load_design, make_design, preset
+
+DESIGN_KINDS = ("basis", "proposed")
+DEFAULT_PHI1_DEG, DEFAULT_PHI2_DEG, DEFAULT_HINGES = 22.0, 17.2, "05-03"
+
+
+def add_design_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the design-selection flags to a sub-command's parser."""
+    g = parser.add_argument_group("design (flags, or --preset, or --config)")
+    g.add_argument("--design", metavar="KIND", help="basis | proposed (default proposed)")
+    g.add_argument("--phi1", type=float, metavar="DEG",
+                   help=f"side-link lean from the vertical, deg (default {DEFAULT_PHI1_DEG:g})")
+    g.add_argument("--phi2", type=float, metavar="DEG",
+                   help=f"middle-link rise above the horizontal, deg (default {DEFAULT_PHI2_DEG:g}; "
+                        "not for --design basis)")
+    g.add_argument("--hinges", metavar="SET",
+                   help=f"hinge set: {' | '.join(HINGE_SETS)} (default {DEFAULT_HINGES})")
+    g.add_argument("--preset", metavar="NAME", help=f"thesis specimen: {', '.join(PRESETS)}")
+    g.add_argument("--config", metavar="TOML", type=Path, help="read the design from a TOML file")
+    g.add_argument("--material", metavar="NAME",
+                   help=f"{' | '.join(MATERIALS)} (default: the design's own, delrin)")
+
+
+def _flag_design(args: argparse.Namespace) -> Design:
+    kind = args.design or "proposed"
+    if kind not in DESIGN_KINDS:
+        raise ParameterError(f"--design = {kind!r}: must be one of {', '.join(DESIGN_KINDS)}")
+    phi1 = DEFAULT_PHI1_DEG if args.phi1 is None else args.phi1
+    hinges = args.hinges or DEFAULT_HINGES
+    if kind == "basis":
+        if args.phi2 is not None:
+            raise ParameterError(f"--phi2 = {args.phi2:g}: the basis body has no middle branch "
+                                 "(drop --phi2 or use --design proposed)")
+        return make_design(phi1, None, hinges, name=f"basis-{phi1:g}-{hinges}")
+    phi2 = DEFAULT_PHI2_DEG if args.phi2 is None else args.phi2
+    return make_design(phi1, phi2, hinges, name=f"proposed-{phi1:g}-{phi2:g}-{hinges}")
+
+
+def design_from_args(args: argparse.Namespace) -> Design:
+    """The design chosen by the flags of :func:`add_design_arguments`.
+
+    Raises :class:`ParameterError` for conflicting or unknown choices (one-line messages).
+    """
+    shape_flags = [f"--{n}" for n in ("design", "phi1", "phi2", "hinges")
+                   if getattr(args, n) is not None]
+    if args.preset is not None and args.config is not None:
+        raise ParameterError("--preset and --config: give only one source for the design")
+    source = "--preset" if args.preset is not None else "--config" if args.config is not None else None
+    if source and shape_flags:
+        raise ParameterError(f"{shape_flags[0]} cannot be combined with {source} "
+                             "(give the design by flags, by --preset or by --config)")
+    if args.preset is not None:
+        design = preset(args.preset)
+    elif args.config is not None:
+        design = load_design(args.config)
+        if design.name == "custom":
+            design = design.replace(name=args.config.stem)
+    else:
+        design = _flag_design(args)
+    if args.material is not None:
+        if args.material not in MATERIALS:
+            raise ParameterError(f"--material = {args.material!r}: must be one of {', '.join(MATERIALS)}")
+        if MATERIALS[args.material] != design.material:
+            design = design.replace(material=MATERIALS[args.material],
+                                    name=f"{design.name}-{args.material}")
+    return design
