@@ -166,7 +166,7 @@ def check_design(d: Design) -> FeasibilityReport:
     inside = (lo[0] >= -d.width_mm / 2 - tol and hi[0] <= d.width_mm / 2 + tol
               and lo[1] >= -tol and hi[1] <= d.height_mm + tol)
     add("footprint", inside, f"body spans x [{lo[0]:.2f}, {hi[0]:.2f}], y [{lo[1]:.2f}, {hi[1]:.2f}] mm: "
-        f"must fit the {d.width_mm:g} x {d.height_mm:g} mm footprint")
+        f"must fit the footprint width_mm = {d.width_mm:g} x height_mm = {d.height_mm:g}")
 
     dist, overlap = _pair_distances(poly)
     adj = _adjacent(parts, lay)

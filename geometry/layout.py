@@ -142,12 +142,13 @@ def make_parts(lay: Layout) -> list[Part]:
     for name, (a, b), h1, h2 in side_members(lay):
         nodes = member_chain(a, b, lh)
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
-        ext = d.link_width_mm  # how far a root reaches into its rigid body
-        parts.append(Part(f"hinge {h1}", "hinge", _bar(nodes[0], nodes[1], t1, extend_a=ext), h1,
+        # a root reaches 2 t into its rigid body: that closes the notch between the neck
+        # and the body's face for any angle below atan(4) = 76 deg, and stays inside it
+        parts.append(Part(f"hinge {h1}", "hinge", _bar(nodes[0], nodes[1], t1, extend_a=2 * t1), h1,
                           nodes[0:2], t1))
         parts.append(Part(f"{name} link", "link", _bar(nodes[1], nodes[2], d.link_width_mm), 0,
                           nodes[1:3], d.link_width_mm))
-        parts.append(Part(f"hinge {h2}", "hinge", _bar(nodes[2], nodes[3], t2, extend_b=ext), h2,
+        parts.append(Part(f"hinge {h2}", "hinge", _bar(nodes[2], nodes[3], t2, extend_b=2 * t2), h2,
                           nodes[2:4], t2))
     return parts
 

@@ -191,9 +191,11 @@ def design_from_dict(data: dict, source: str = "design") -> Design:
     """Build a design from a dict such as ``design_to_dict`` writes (unknown keys are errors).
 
     ``material`` may be a preset name ("delrin", "abs") or a table with name, E_MPa, nu.
-    ``hinge_set`` alone sets the thicknesses of a named set.
+    ``hinge_set`` alone sets the thicknesses of a named set. Without ``phi2_deg`` the design
+    is the basis body (TOML has no null).
     """
     data = dict(data)
+    data.setdefault("phi2_deg", None)
     known = {f.name for f in dataclasses.fields(Design)}
     unknown = sorted(set(data) - known)
     if unknown:

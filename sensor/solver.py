@@ -451,7 +451,13 @@ class _Run:
             u_in, _, _ = _port(topo, ns, topo.input_node, self.bt.d_in)
             u_out, _, _ = _port(topo, ns, topo.output_node, self.bt.d_out)
             for b in np.flatnonzero(alive):
-                if self.disp and lam_new[b] <= hist_F[-1][b]:
+                if self.disp and n_inc == 1 and lam_new[b] <= 0:
+                    errors[b] = UnreachableTargetError(
+                        f"increment 1: the output moves against its direction (input force "
+                        f"{lam_new[b]:.4g} N for output travel {u_out[b]:.4g} mm, residual "
+                        f"{res[b]:.2e}): the target cannot be reached by pushing the input")
+                    alive[b] = False
+                elif self.disp and lam_new[b] <= hist_F[-1][b]:
                     errors[b] = SnapThroughError(
                         f"increment {n_inc}: input force fell from {hist_F[-1][b]:.4g} N to "
                         f"{lam_new[b]:.4g} N while the output travel rose to {u_out[b]:.4g} mm "

@@ -1,0 +1,132 @@
+"""Hysteresis of a loading-unloading loop (eq 87), the strain-energy law and sensor quality.
+
+Thesis section 6.2.5 and Table 6: hysteresis H = max(delta f) / F_max, where delta f is the
+largest gap between the outputs at the same input on the loading and unloading branches and
+F_max the output range. The thesis' hypothesis, supported by Table 6, is that H grows in
+proportion to the strain energy SE needed for the output travel (H / SE = 0.062, 0.056 and
+0.065 per mJ for the basis, sample A and sample B). Quality = sensitivity / H.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sensor.errors import SensorError
+
+
+class HysteresisError(SensorError):
+    """A loop that cannot give a hysteresis value (too short, not a loop, bad columns)."""
+
+
+@dataclass(frozen=True)
+class Specimen:
+    """One row of thesis Table 6: measured values, and the thesis' analytic ones."""
+
+    name: str
+    strain_energy_mJ: float
+    strain_energy_model_mJ: float
+    hysteresis: float
+    sensitivity_mm_per_N: float
+    sensitivity_model_mm_per_N: float
+    quality: float
+
+
+#: Thesis Table 6 (analytic values are the numbers in parentheses).
+TABLE6 = {
+    "basis": Specimen("basis", 2.187, 2.385, 0.135, 0.227, 0.202, 1.682),
+    "sample-a": Specimen("sample-a", 0.815, 0.941, 0.046, 0.281, 0.239, 6.109),
+    "sample-b": Specimen("sample-b", 0.550, 0.684, 0.036, 0.204, 0.178, 5.667),
+}
+
+
+def hysteresis(inputs, outputs) -> float:
+    """H = max(delta f) / F_max (eq 87) of one loading-unloading loop.
+
+    ``inputs`` is what was imposed (e.g. displacement), ``outputs`` what was read (e.g.
+    force), in time order: the loop loads up to the largest input and unloads after it.
+    Both branches are interpolated onto the inputs they share; F_max is the output range.
+    """
+    x = np.asarray(inputs, dtype=float)
+    f = np.asarray(outputs, dtype=float)
+    if x.shape != f.shape or x.ndim != 1:
+        raise HysteresisError(f"inputs and outputs must be 1-D of one length, got {x.shape} and {f.shape}")
+    if len(x) < 4 or not np.isfinite(x).all() or not np.isfinite(f).all():
+        raise HysteresisError(f"a loop needs at least 4 finite samples, got {len(x)}")
+    turn = int(np.argmax(x))
+    if turn == 0 or turn == len(x) - 1:
+        raise HysteresisError("the loop has no unloading branch: the largest input is at an end")
+    load_x, load_f = x[: turn + 1], f[: turn + 1]
+    unload_x, unload_f = x[turn:][::-1], f[turn:][::-1]
+    lo = max(load_x.min(), unload_x.min())
+    hi = x[turn]
+    grid = np.linspace(lo, hi, 512)
+    gap = np.abs(_branch(load_x, load_f, grid) - _branch(unload_x, unload_f, grid))
+    span = f.max() - f.min()
+    if span <= 0:
+        raise HysteresisError("the output range F_max is zero")
+    return float(gap.max() / span)
+
+
+def _branch(x, f, grid):
+    """Interpolate one branch (sorted by input; repeated inputs averaged)."""
+    order = np.argsort(x, kind="stable")
+    xs, fs = x[order], f[order]
+    ux, inv = np.unique(xs, return_inverse=True)
+    uf = np.bincount(inv, weights=fs) / np.bincount(inv)
+    return np.interp(grid, ux, uf)
+
+
+def hysteresis_from_csv(path: str | Path, input_column: str = "displacement_mm",
+                        output_column: str = "force_N") -> float:
+    """H (eq 87) of a measured loop in a CSV file with a header row naming the columns."""
+    with open(path, newline="") as fh:
+        reader = csv.DictReader(fh)
+        cols = reader.fieldnames or []
+        for c in (input_column, output_column):
+            if c not in cols:
+                raise HysteresisError(f"{path}: no column {c!r}; columns are {', '.join(cols)}")
+        try:
+            rows = [(float(r[input_column]), float(r[output_column])) for r in reader]
+        except ValueError as exc:
+            raise HysteresisError(f"{path}: non-numeric value: {exc}") from None
+    if not rows:
+        raise HysteresisError(f"{path}: no data rows")
+    x, f = np.array(rows).T
+    return hysteresis(x, f)
+
+
+@dataclass(frozen=True)
+class StrainEnergyLaw:
+    """H = h_per_mJ * SE (thesis section 6.2.5 hypothesis), calibrated on one specimen."""
+
+    h_per_mJ: float
+    calibrated_on: str
+
+    def predict(self, strain_energy_mJ):
+        """Predicted hysteresis (fraction of full scale) for a strain energy in mJ."""
+        return self.h_per_mJ * np.asarray(strain_energy_mJ, dtype=float)
+
+    @classmethod
+    def calibrate(cls, specimen: str = "basis") -> "StrainEnergyLaw":
+        """Calibrate on one specimen of Table 6 (its measured H and measured SE)."""
+        if specimen not in TABLE6:
+            raise SensorError(f"specimen = {specimen!r}: must be one of {', '.join(TABLE6)}")
+        s = TABLE6[specimen]
+        return cls(s.hysteresis / s.strain_energy_mJ, specimen)
+
+    def errors_on_table6(self) -> dict[str, float]:
+        """Relative error of the predicted H on each Table 6 specimen (from measured SE)."""
+        return {k: float(self.predict(s.strain_energy_mJ) / s.hysteresis - 1.0) for k, s in TABLE6.items()}
+
+
+#: The law used by default: calibrated on the basis specimen.
+DEFAULT_LAW = StrainEnergyLaw.calibrate("basis")
+
+
+def quality(sensitivity_mm_per_N, hysteresis_fraction):
+    """Overall quality ("SNR" of Table 6) = sensitivity / hysteresis, mm/N."""
+    return np.asarray(sensitivity_mm_per_N, dtype=float) / np.asarray(hysteresis_fraction, dtype=float)
