@@ -1,9 +1,9 @@
 """Files for making and solving a design (DESIGN section 9): DXF for the water-jet, STL and
 STEP of the body, and the JSON beam model.
 
-Every writer checks the design's feasibility (:func:`geometry.checks.assert_feasible`) and
-checks its own output before the file is moved into place (:func:`geometry.atomic.atomic_path`),
-so a failed export leaves no file behind. Lengths in mm.
+:func:`export_design` checks the design's feasibility (:func:`geometry.checks.assert_feasible`),
+builds and checks every file's content, and only then writes them through
+:func:`geometry.atomic.atomic_path`, so a failed export leaves no file behind. Lengths in mm.
 """
 
 from __future__ import annotations
@@ -87,24 +87,6 @@ def dxf_document(face: cq.Face) -> ezdxf.document.Drawing:
     return doc
 
 
-def write_dxf(design: Design, path: str | Path, kerf_mm: float | None = None,
-              face: cq.Face | None = None) -> Path:
-    """Write the water-jet DXF of a design; with ``kerf_mm`` the contours are the jet's
-    centre path (see :func:`kerf_path`), without it the nominal profile."""
-    assert_feasible(design)
-    face = face or profile_face(design)
-    if kerf_mm is not None:
-        face = kerf_path(design, face, kerf_mm)
-    return _save_dxf(face, path)
-
-
-def _save_dxf(face: cq.Face, path: str | Path) -> Path:
-    doc = dxf_document(face)
-    with atomic_path(path) as tmp:
-        doc.saveas(tmp)
-    return Path(path)
-
-
 def checked_mesh(design: Design, face: cq.Face | None = None) -> trimesh.Trimesh:
     """The body as a triangle mesh, checked: watertight, one body, and volume equal to
     profile area x sheet thickness within :data:`STL_VOLUME_RTOL`."""
@@ -124,42 +106,32 @@ def checked_mesh(design: Design, face: cq.Face | None = None) -> trimesh.Trimesh
     return mesh
 
 
-def write_stl(design: Design, path: str | Path, face: cq.Face | None = None) -> Path:
-    """Write the checked STL (binary, mm) of the body."""
-    assert_feasible(design)
-    return _save_mesh(checked_mesh(design, face), path)
+def _save_dxf(doc: ezdxf.document.Drawing, tmp: Path) -> None:
+    doc.saveas(tmp)
 
 
-def _save_mesh(mesh: trimesh.Trimesh, path: str | Path) -> Path:
-    with atomic_path(path) as tmp:
-        mesh.export(tmp, file_type="stl")
-    return Path(path)
+def _save_stl(mesh: trimesh.Trimesh, tmp: Path) -> None:
+    mesh.export(tmp, file_type="stl")
 
 
-def write_step(design: Design, path: str | Path, face: cq.Face | None = None) -> Path:
-    """Write the body as STEP (mm)."""
-    assert_feasible(design)
-    solid = extrude(face or profile_face(design), design.sheet_thickness_mm)
-    with atomic_path(path) as tmp:
-        if not solid.exportStep(str(tmp)):
-            raise OSError(f"could not write STEP file {path}")
-    return Path(path)
+def _save_step(solid: cq.Solid, tmp: Path) -> None:
+    if not solid.exportStep(str(tmp)):
+        raise OSError(f"could not write STEP file {tmp}")
 
 
-def write_json(design: Design, path: str | Path) -> Path:
-    """Write the beam model (schema ``dacm-beam-model/1``, see :mod:`geometry.topology`)."""
-    assert_feasible(design)
-    with atomic_path(path) as tmp:
-        tmp.write_text(model_to_json(build_beam_model(design)) + "\n")
-    return Path(path)
+def _save_text(text: str, tmp: Path) -> None:
+    tmp.write_text(text)
 
 
 def export_design(design: Design, out_dir: str | Path, formats: Iterable[str] = FORMATS,
                   kerf_mm: float | None = None) -> list[Path]:
     """Write the chosen formats as ``<out_dir>/<design.name>.<ext>``; return the paths.
 
-    Everything is built and checked before the first file is written, so a bad design or
-    kerf writes nothing.
+    ``dxf``: the water-jet profile (with ``kerf_mm``: the jet's centre path, see
+    :func:`kerf_path`); ``stl`` and ``step``: the extruded body; ``json``: the beam model
+    (schema ``dacm-beam-model/1``, see :mod:`geometry.topology`). The design's feasibility
+    is checked and every file is built and checked before the first is written, so a bad
+    design or kerf writes nothing.
     """
     formats = list(dict.fromkeys(formats))
     unknown = [f for f in formats if f not in FORMATS]
@@ -170,18 +142,21 @@ def export_design(design: Design, out_dir: str | Path, formats: Iterable[str] = 
         raise FileNotFoundError(f"output folder does not exist: {out}")
     assert_feasible(design)
     face = profile_face(design)
-    dxf_face = kerf_path(design, face, kerf_mm) if kerf_mm is not None and "dxf" in formats else face
-    mesh = checked_mesh(design, face) if "stl" in formats else None
+    built = {}
+    if "dxf" in formats:
+        cut = face if kerf_mm is None else kerf_path(design, face, kerf_mm)
+        built["dxf"] = (_save_dxf, dxf_document(cut))
+    if "stl" in formats:
+        built["stl"] = (_save_stl, checked_mesh(design, face))
+    if "step" in formats:
+        built["step"] = (_save_step, extrude(face, design.sheet_thickness_mm))
+    if "json" in formats:
+        built["json"] = (_save_text, model_to_json(build_beam_model(design)) + "\n")
     written = []
     for fmt in formats:
+        save, content = built[fmt]
         path = out / f"{design.name}.{fmt}"
-        if fmt == "dxf":
-            _save_dxf(dxf_face, path)
-        elif fmt == "stl":
-            _save_mesh(mesh, path)
-        elif fmt == "step":
-            write_step(design, path, face)
-        else:
-            write_json(design, path)
+        with atomic_path(path) as tmp:
+            save(content, tmp)
         written.append(path)
     return written

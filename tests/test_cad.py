@@ -83,7 +83,8 @@ def test_loops_describe_the_face(profiles):
             outline, holes = face_loops(f)
 
             def area(xy):
-                return 0.5 * (np.dot(xy[:, 0], np.roll(xy[:, 1], -1)) - np.dot(xy[:, 1], np.roll(xy[:, 0], -1)))
+                x, y = xy[:, 0], xy[:, 1]
+                return 0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
             a_out = area(flatten_loop(outline, 0.2))
             a_holes = [area(flatten_loop(h, 0.2)) for h in holes]

@@ -11,8 +11,7 @@ import trimesh
 
 from geometry.cad import profile_face
 from geometry.errors import GeometryError, InfeasibleDesignError, ParameterError
-from geometry.export import (LAYER_HOLES, LAYER_OUTLINE, export_design, kerf_path,
-                             write_dxf)
+from geometry.export import LAYER_HOLES, LAYER_OUTLINE, export_design, kerf_path
 from geometry.params import make_design, preset
 from geometry.topology import build_beam_model, load_model
 
@@ -29,7 +28,7 @@ def files(tmp_path_factory):
         export_design(d, out)
     kerf_dir = out / "kerf"
     kerf_dir.mkdir()
-    write_dxf(DESIGNS["sample-a"], kerf_dir / "sample-a.dxf", kerf_mm=KERF)
+    export_design(DESIGNS["sample-a"], kerf_dir, ["dxf"], kerf_mm=KERF)
     return out
 
 
