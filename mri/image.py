@@ -1,6 +1,8 @@
 """The image model shared by the loaders and the measures: pixels plus the metadata that matters.
 
-Pixels are always a float64 array of shape ``(slices, rows, cols)``; a 2-D image is one slice.
+Pixels are always a float array of shape ``(slices, rows, cols)``; a 2-D image is one slice. They
+are float32 when that is exact (8- and 16-bit integers, float32 input: half the memory of a
+large volume) and float64 otherwise; the measures work in float64 slice by slice.
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ class MriImage:
 
 
 def as_pixels(array, source: str) -> np.ndarray:
-    """Validate a 2-D or 3-D real numeric array and return it as float64 (slices, rows, cols).
+    """Validate a 2-D or 3-D real numeric array and return it as float (slices, rows, cols).
 
     Raises :class:`ImageLoadError` naming ``source`` for other dimensions, complex or non-numeric
     data, images smaller than 2 x 2, and NaN or infinite pixels.
@@ -65,9 +67,10 @@ def as_pixels(array, source: str) -> np.ndarray:
         )
     if arr.shape[0] < 1 or arr.shape[1] < 2 or arr.shape[2] < 2:
         raise ImageLoadError(f"{source}: image of shape {arr.shape} is too small (need 2 x 2)")
-    out = arr.astype(np.float64, copy=False)
-    bad = ~np.isfinite(out)
-    if bad.any():
+    exact32 = arr.dtype == np.float32 or (arr.dtype.kind in "biu" and arr.dtype.itemsize <= 2)
+    out = arr.astype(np.float32 if exact32 else np.float64, copy=False)
+    bad = ~np.isfinite(out) if arr.dtype.kind == "f" else None  # integers are always finite
+    if bad is not None and bad.any():
         raise ImageLoadError(
             f"{source}: {int(bad.sum())} pixel(s) are NaN or infinite; pixels must be finite"
         )

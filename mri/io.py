@@ -1,6 +1,6 @@
 """Load MR images from DICOM (file, series folder, enhanced multi-frame), NIfTI, PNG/TIFF and NPY.
 
-Every loader returns an :class:`mri.image.MriImage` with float64 pixels of shape
+Every loader returns an :class:`mri.image.MriImage` with float pixels of shape
 ``(slices, rows, cols)`` and whatever metadata the format carries. Anything that is not a
 usable image raises :class:`mri.errors.ImageLoadError` with the path in the message.
 """
@@ -104,7 +104,7 @@ def _plain(value):
 
 
 def _dicom_frames(ds, path: Path) -> np.ndarray:
-    """Pixels of one DICOM dataset as float64 (frames, rows, cols) with the rescale applied."""
+    """Pixels of one DICOM dataset as floats (frames, rows, cols) with the rescale applied."""
     if "PixelData" not in ds:
         sop = getattr(ds.get("SOPClassUID"), "name", ds.get("SOPClassUID"))
         raise ImageLoadError(f"{path}: DICOM file without pixel data (SOP class {sop!s})")

@@ -59,11 +59,14 @@ class MethodResult:
 
 @dataclass(frozen=True)
 class SliceResult:
-    """One slice: the thesis difference (percent) and each method's result."""
+    """One slice: each method's result and the thesis difference, with its totals sum |a - b|
+    and sum a (pixel units) from which a volume's difference is summed."""
 
     index: int
     difference_percent: float
     methods: tuple[MethodResult, ...]
+    sum_abs_difference: float
+    sum_a: float
 
 
 @dataclass(frozen=True)
@@ -93,41 +96,59 @@ class PairResult:
 # --------------------------------------------------------------------------- noise estimators
 
 
-def thesis_noise(diff: np.ndarray, mask: np.ndarray) -> float:
+def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     """Eqs 91-92: single-image noise from horizontal neighbour differences of V = a - b.
 
-    Only neighbour pairs with both pixels in ``mask`` count (n (m - 1) pairs for a full
-    n x m image). Units: those of the pixels.
+    Only neighbour pairs with both pixels in ``mask`` count (all n (m - 1) pairs of the n x m
+    array ``diff`` when ``mask`` is None). Units: those of the pixels.
     """
-    pairs = mask[:, 1:] & mask[:, :-1]
-    n_pairs = int(pairs.sum())
+    step = np.diff(diff, axis=1)
+    if mask is None:
+        n_pairs, total = step.size, float(np.einsum("ij,ij->", step, step))
+    else:
+        pairs = mask[:, 1:] & mask[:, :-1]
+        n_pairs, total = int(pairs.sum()), float(np.sum(step[pairs] ** 2))
     if n_pairs == 0:
         raise MeasurementError(
             "thesis method: the ROI holds no two horizontally adjacent pixels (eq 91 needs them)"
         )
-    step = np.diff(diff, axis=1)
-    total = float(np.einsum("ij,ij->", step, step)) if pairs.all() else float(np.sum(step[pairs] ** 2))
     sd = np.sqrt(total / (2.0 * n_pairs))
     return float(sd / np.sqrt(2.0))
 
 
-def nema_noise(diff: np.ndarray, mask: np.ndarray) -> float:
+def nema_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     """NEMA MS 1: sample standard deviation of V = a - b in the ROI, divided by sqrt(2)."""
-    return float(np.std(diff[mask], ddof=1) / np.sqrt(2.0))
+    values = diff if mask is None else diff[mask]
+    return float(np.std(values, ddof=1) / np.sqrt(2.0))
 
 
 _NOISE = {"thesis": thesis_noise, "nema": nema_noise}
 
 
-def difference_percent(a: np.ndarray, b: np.ndarray) -> float:
-    """The thesis' difference (Figures 57, 58, 60): 100 * sum |a - b| / sum a."""
-    total = float(np.sum(a))
-    if total <= 0:
+def _percent(sum_abs_difference: float, sum_a: float) -> float:
+    if sum_a <= 0:
         raise MeasurementError(
-            f"difference: the pixels of a sum to {total:g}; the thesis' difference needs a "
+            f"difference: the pixels of a sum to {sum_a:g}; the thesis' difference needs a "
             "positive total"
         )
-    return 100.0 * float(np.sum(np.abs(a - b))) / total
+    return 100.0 * sum_abs_difference / sum_a
+
+
+def difference_percent(a: np.ndarray, b: np.ndarray) -> float:
+    """The thesis' difference (Figures 57, 58, 60): 100 * sum |a - b| / sum a.
+
+    Volumes are summed slice by slice, so no volume-sized temporary is made.
+    """
+    if a.ndim == 3:
+        sums = np.array([_sums(x, y) for x, y in zip(a, b)])
+        return _percent(float(sums[:, 0].sum()), float(sums[:, 1].sum()))
+    return _percent(*_sums(a, b))
+
+
+def _sums(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """sum |a - b| and sum a of one slice, in float64."""
+    a = a.astype(np.float64, copy=False)
+    return float(np.sum(np.abs(a - b))), float(np.sum(a))
 
 
 # --------------------------------------------------------------------------- measures
@@ -135,12 +156,15 @@ def difference_percent(a: np.ndarray, b: np.ndarray) -> float:
 
 def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
     """Signal, noise and SNR of one ROI on one slice (eq 93: SNR = S / Noise)."""
-    noise = _NOISE[method](diff, roi.mask)
+    if roi.box is None:
+        noise = _NOISE[method](diff, roi.mask)
+    else:  # a rectangle: measure on the block itself, no mask needed
+        noise = _NOISE[method](roi.pixels(diff))
     if noise == 0.0:
         raise MeasurementError(
             f"zero noise in ROI {roi.label!r}: images a and b are identical there, SNR is undefined"
         )
-    signal = float(np.mean(a[roi.mask]))
+    signal = float(np.mean(roi.pixels(a)))
     return RoiMeasure(roi.label, roi.n_pixels, signal, noise, signal / noise)
 
 
@@ -161,16 +185,19 @@ def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], metho
 def measure_slice(
     index: int, a: np.ndarray, b: np.ndarray, rois_by_method: dict[str, tuple[Roi, ...]]
 ) -> SliceResult:
-    """All requested methods on one 2-D slice pair; ``rois_by_method`` maps method -> ROIs."""
+    """All requested methods on one 2-D float64 slice pair; ``rois_by_method``: method -> ROIs."""
     diff = a - b
+    sum_abs_difference, sum_a = float(np.sum(np.abs(diff))), float(np.sum(a))
     return SliceResult(
         index,
-        difference_percent(a, b),
+        _percent(sum_abs_difference, sum_a),
         tuple(measure_method(a, diff, rois, m) for m, rois in rois_by_method.items()),
+        sum_abs_difference,
+        sum_a,
     )
 
 
-def summarise(slices: tuple[SliceResult, ...], a: np.ndarray, b: np.ndarray) -> PairResult:
+def summarise(slices: tuple[SliceResult, ...]) -> PairResult:
     """Per-method summaries over slices and the total difference of the whole volume."""
     summaries = []
     for k, result in enumerate(slices[0].methods):
@@ -186,13 +213,15 @@ def summarise(slices: tuple[SliceResult, ...], a: np.ndarray, b: np.ndarray) -> 
                 noise=float(np.mean([m.noise for m in per_slice])),
             )
         )
-    return PairResult(slices, tuple(summaries), difference_percent(a, b))
+    total = _percent(sum(s.sum_abs_difference for s in slices), sum(s.sum_a for s in slices))
+    return PairResult(slices, tuple(summaries), total)
 
 
 def measure_pair(
     a: np.ndarray, b: np.ndarray, spacing_mm, specs_by_method: dict[str, tuple[RoiSpec, ...]]
 ) -> PairResult:
-    """Measure a (slices, rows, cols) pair slice by slice; ROIs are resolved on each slice of a.
+    """Measure a (slices, rows, cols) pair slice by slice, in float64; ROIs are resolved on each
+    slice of a.
 
     ``spacing_mm`` is (row, col) in mm or None; ``specs_by_method`` maps each method to measure
     to its ROI specs.
@@ -201,12 +230,13 @@ def measure_pair(
         raise MeasurementError(f"pair shapes differ: {a.shape} and {b.shape}")
     slices = []
     for k in range(a.shape[0]):
+        a_k, b_k = a[k].astype(np.float64), b[k].astype(np.float64)
         rois = {
-            method: tuple(roi for spec in specs for roi in resolve_roi(spec, a[k], spacing_mm, k))
+            method: tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k))
             for method, specs in specs_by_method.items()
         }
-        slices.append(measure_slice(k, a[k], b[k], rois))
-    return summarise(tuple(slices), a, b)
+        slices.append(measure_slice(k, a_k, b_k, rois))
+    return summarise(tuple(slices))
 
 
 def magnitude_snr(true_snr: float) -> float:

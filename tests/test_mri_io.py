@@ -78,7 +78,7 @@ def pattern(shape=(6, 8), offset=0):
 def test_dicom_file_pixels_and_metadata(tmp_path):
     path = write_dicom(tmp_path / "a.dcm", pattern(), RescaleSlope=2, RescaleIntercept=-5)
     img = load_image(path)
-    assert img.shape == (1, 6, 8) and img.pixels.dtype == np.float64
+    assert img.shape == (1, 6, 8) and img.pixels.dtype == np.float64  # rescaled: float64
     np.testing.assert_array_equal(img.pixels[0], pattern() * 2.0 - 5.0)
     assert img.format == "dicom"
     assert img.pixel_spacing_mm == (0.5, 0.75)
@@ -196,11 +196,15 @@ def test_png_tiff_npy_round_trip(tmp_path):
     iio.imwrite(tmp_path / "rgb.png", np.repeat(grey.astype(np.uint8)[..., None], 3, axis=2))
     tifffile.imwrite(tmp_path / "v.tif", np.stack([grey, grey + 1]))
     np.save(tmp_path / "a.npy", grey.astype(np.float32))
+    np.save(tmp_path / "i32.npy", grey.astype(np.int32))
     np.testing.assert_array_equal(load_image(tmp_path / "a.png").pixels[0], grey)
     np.testing.assert_array_equal(load_image(tmp_path / "rgb.png").pixels[0], grey.astype(np.uint8))
     assert load_image(tmp_path / "v.tif").shape == (2, 6, 8)
     npy = load_image(tmp_path / "a.npy")
     assert npy.format == "npy" and npy.pixel_spacing_mm is None
+    # float32 where exact (16-bit integers, float32), float64 for wider integers
+    assert (npy.pixels.dtype, load_image(tmp_path / "a.png").pixels.dtype) == (np.float32,) * 2
+    assert load_image(tmp_path / "i32.npy").pixels.dtype == np.float64
     np.testing.assert_array_equal(npy.pixels[0], grey)
 
 

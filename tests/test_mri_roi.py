@@ -107,3 +107,21 @@ def test_empty_or_outside_roi(text, message):
 def test_uniform_image_has_no_phantom():
     with pytest.raises(RoiError, match="uniform"):
         resolve("phantom", np.full((20, 20), 7.0))
+
+
+def test_fast_helpers_match_scipy_and_skimage():
+    # otsu_threshold, fill_holes and centroid are faster equivalents of library functions;
+    # they must agree exactly with them.
+    from scipy import ndimage
+    from skimage.filters import threshold_otsu
+
+    from mri.roi import centroid, fill_holes, otsu_threshold
+
+    rng = np.random.default_rng(3)
+    image, _ = disc_image(seed=3)
+    assert otsu_threshold(image) == threshold_otsu(image)
+    for _ in range(5):
+        blob = np.zeros((60, 70), dtype=bool)
+        blob[5:50, 10:60] = rng.random((45, 50)) > 0.3
+        np.testing.assert_array_equal(fill_holes(blob), ndimage.binary_fill_holes(blob))
+        assert centroid(blob) == pytest.approx(ndimage.center_of_mass(blob), rel=1e-12)
