@@ -125,21 +125,19 @@ def _save_text(text: str, tmp: Path) -> None:
 
 def export_design(design: Design, out_dir: str | Path, formats: Iterable[str] = FORMATS,
                   kerf_mm: float | None = None) -> list[Path]:
-    """Write the chosen formats as ``<out_dir>/<design.name>.<ext>``; return the paths.
+    """Write the chosen formats as ``<out_dir>/<design.name>.<ext>`` (the folder is created
+    if needed); return the paths.
 
     ``dxf``: the water-jet profile (with ``kerf_mm``: the jet's centre path, see
     :func:`kerf_path`); ``stl`` and ``step``: the extruded body; ``json``: the beam model
     (schema ``dacm-beam-model/1``, see :mod:`geometry.topology`). The design's feasibility
     is checked and every file is built and checked before the first is written, so a bad
-    design or kerf writes nothing.
+    design or kerf writes nothing (not even the folder).
     """
     formats = list(dict.fromkeys(formats))
     unknown = [f for f in formats if f not in FORMATS]
     if unknown:
         raise ParameterError(f"format {unknown[0]!r}: must be one of {', '.join(FORMATS)}")
-    out = Path(out_dir)
-    if not out.is_dir():
-        raise FileNotFoundError(f"output folder does not exist: {out}")
     assert_feasible(design)
     face = profile_face(design)
     built = {}
@@ -152,6 +150,11 @@ def export_design(design: Design, out_dir: str | Path, formats: Iterable[str] = 
         built["step"] = (_save_step, extrude(face, design.sheet_thickness_mm))
     if "json" in formats:
         built["json"] = (_save_text, model_to_json(build_beam_model(design)) + "\n")
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(f"cannot create output folder {out}: {exc.strerror}") from None
     written = []
     for fmt in formats:
         save, content = built[fmt]

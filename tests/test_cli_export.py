@@ -78,9 +78,15 @@ def test_export_malformed_toml(tmp_path, capsys):
 
 
 def test_export_unwritable_output(tmp_path, capsys):
-    status, _, err = run(capsys, "export", "--preset", "basis", "--out", str(tmp_path / "no" / "dir"))
-    assert status == 2 and len(err.splitlines()) == 1 and "does not exist" in err
-    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "file").write_text("")
+    status, _, err = run(capsys, "export", "--preset", "basis", "--out", str(tmp_path / "file" / "dir"))
+    assert status == 2 and len(err.splitlines()) == 1 and "cannot create output folder" in err
+    assert [p.name for p in tmp_path.iterdir()] == ["file"]
+
+
+def test_export_bad_design_creates_no_folder(tmp_path, capsys):
+    status, _, _ = run(capsys, "export", "--phi1", "40", "--out", str(tmp_path / "new"))
+    assert status == 2 and list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".svg", b"<?xml")])

@@ -167,10 +167,12 @@ def test_infeasible_design_writes_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_unknown_format_and_missing_folder(tmp_path):
+def test_unknown_format_and_output_folder(tmp_path):
     with pytest.raises(ParameterError, match="format 'igs'"):
         export_design(DESIGNS["basis"], tmp_path, ["dxf", "igs"])
-    with pytest.raises(FileNotFoundError, match="does not exist"):
-        export_design(DESIGNS["basis"], tmp_path / "missing")
     assert list(tmp_path.iterdir()) == []
-
+    assert export_design(DESIGNS["basis"], tmp_path / "new" / "dir", ["json"]) == [
+        tmp_path / "new" / "dir" / "basis.json"]
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OSError, match="cannot create output folder"):
+        export_design(DESIGNS["basis"], tmp_path / "file" / "dir", ["json"])

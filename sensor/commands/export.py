@@ -18,7 +18,7 @@ def register(subparsers) -> None:
                     "first; nothing is written if any check fails.")
     add_design_arguments(p)
     p.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
-                   help="output folder (default: the current folder; must exist)")
+                   help="output folder, created if missing (default: the current folder)")
     for fmt, what in (("dxf", "2D profile for the water-jet"), ("stl", "3D mesh"),
                       ("step", "3D solid"), ("json", "beam model for the solver")):
         p.add_argument(f"--{fmt}", action="store_true", help=f"write the {what}")
