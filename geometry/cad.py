@@ -93,11 +93,6 @@ def extrude(face: cq.Face, thickness_mm: float) -> cq.Solid:
     return cq.Solid.extrudeLinear(face, cq.Vector(0.0, 0.0, float(thickness_mm)))
 
 
-def body_solid(design: Design) -> cq.Solid:
-    """The 3D body: the profile extruded by the sheet thickness."""
-    return extrude(profile_face(design), design.sheet_thickness_mm)
-
-
 # --- measurements on the profile -------------------------------------------------------
 
 def chord(face: cq.Face, point, direction) -> tuple[np.ndarray, np.ndarray]:
