@@ -93,9 +93,11 @@ def _first(ds, keywords: tuple[str, ...]):
 
 def _plain(value):
     """DICOM value -> JSON-friendly Python value (numbers as float, multi-values joined)."""
+    from pydicom.multival import MultiValue
+
     if value is None:
         return None
-    if isinstance(value, (list, tuple)) or type(value).__name__ == "MultiValue":
+    if isinstance(value, (list, tuple, MultiValue)):
         return "\\".join(str(v) for v in value)
     try:
         return float(value)
@@ -125,9 +127,8 @@ def _dicom_frames(ds, path: Path) -> np.ndarray:
     return frames
 
 
-def _dicom_image(datasets: list, pixels: np.ndarray, source: str) -> MriImage:
-    """Build an :class:`MriImage` from the first dataset's metadata and the stacked pixels."""
-    ds = datasets[0]
+def _dicom_image(ds, pixels: np.ndarray, source: str) -> MriImage:
+    """Build an :class:`MriImage` from one dataset's metadata (the first slice's) and pixels."""
     spacing = _lookup(ds, "PixelSpacing")
     thickness = _lookup(ds, "SliceThickness")
     orientation = _lookup(ds, "ImageOrientationPatient")
@@ -167,7 +168,7 @@ def load_dicom_file(path) -> MriImage:
         raise ImageLoadError(
             f"{p}: not a DICOM, NIfTI (.nii, .nii.gz), PNG, TIFF or NPY file"
         )
-    return _dicom_image([ds], _dicom_frames(ds, p), str(p))
+    return _dicom_image(ds, _dicom_frames(ds, p), str(p))
 
 
 def _slice_key(ds) -> tuple[float, float]:
@@ -208,7 +209,7 @@ def load_dicom_series(folder) -> MriImage:
         raise ImageLoadError(
             f"{root}: series images differ in size {sorted(shapes)}; all slices must match"
         )
-    return _dicom_image([ds for _, ds in datasets], np.concatenate(stacks), str(root))
+    return _dicom_image(datasets[0][1], np.concatenate(stacks), str(root))
 
 
 # --------------------------------------------------------------------------- other formats
