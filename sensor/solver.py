@@ -463,7 +463,7 @@ class _Run:
                         f"{lam_new[b]:.4g} N while the output travel rose to {u_out[b]:.4g} mm "
                         f"(residual {res[b]:.2e}): limit point, the reading would be ambiguous")
                     alive[b] = False
-                elif abs(lam_new[b]) > o.max_force_N or (not self.disp and u_out[b] <= hist_out[-1][b]):
+                elif self.disp and abs(lam_new[b]) > o.max_force_N:
                     errors[b] = UnreachableTargetError(
                         f"increment {n_inc}: output travel {u_out[b]:.4g} mm at input force "
                         f"{lam_new[b]:.4g} N (residual {res[b]:.2e}): the target cannot be reached")
@@ -562,7 +562,7 @@ class _Run:
                 member_forces=qf[b].copy(), member_index=topo.flex.copy(),
                 deformed_nodes=x[b].copy(), node_rotation_rad=th[b].copy(), increments=n_inc,
                 residual=float(residual[b]), converged=True))
-            if u_in[-1, b] <= 0 and self.disp:
+            if self.disp and u_in[-1, b] <= 0:
                 errors[b] = UnreachableTargetError(
                     f"increment {n_inc}: input travel {u_in[-1, b]:.4g} mm is not positive at "
                     f"input force {lam[b]:.4g} N (residual {residual[b]:.2e})")
