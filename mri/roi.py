@@ -142,9 +142,8 @@ def otsu_threshold(image: np.ndarray, bins: int = 256) -> float:
     if hi == lo:
         raise RoiError("automatic phantom mask: the image is uniform, no phantom to find")
     width = (hi - lo) / bins
-    scaled = np.subtract(image, lo)
-    scaled *= 1.0 / width
-    index = np.minimum(scaled.astype(np.intp), bins - 1)
+    index = ((image - lo) * (1.0 / width)).astype(np.int32)
+    np.minimum(index, bins - 1, out=index)  # the maximum falls on the upper edge of the last bin
     counts = np.bincount(index.ravel(), minlength=bins)
     return float(threshold_otsu(hist=(counts, lo + (np.arange(bins) + 0.5) * width)))
 
