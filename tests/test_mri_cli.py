@@ -150,3 +150,14 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, files, case):
     assert err.startswith("dacm snr: error: ") and err.count("\n") == 1
     assert message in err
     assert not (tmp_path / "f.png").exists()
+
+
+def test_mask_file_roi(capsys, files, tmp_path):
+    mask = np.zeros((SIZE, SIZE), dtype=np.uint8)
+    mask[100:140, 110:150] = 1
+    iio.imwrite(tmp_path / "mask.png", mask * 255)
+    status, out, _ = run(capsys, files["a1"], files["a2"], "--roi", f"mask:{tmp_path / 'mask.png'}",
+                         "--json")
+    assert status == 0
+    rois = json.loads(out)["slices"][0]["methods"][0]["rois"]
+    assert rois[0]["n_pixels"] == 1600
