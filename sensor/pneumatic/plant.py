@@ -1,0 +1,248 @@
+"""The pneumatic plant: supply, valve, two lines, actuator and environment (chapters III-V).
+
+:class:`Plant` is a frozen description; :meth:`Plant.compile` turns it into
+:class:`CompiledPlant`, the packed arrays the compiled kernel (:mod:`._kernel`) integrates.
+Side 1 connects valve port 1 to chamber 1 (cap side), side 2 port 2 to chamber 2.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sensor.errors import SensorError
+from sensor.pneumatic import _kernel as K
+from sensor.pneumatic.air import AIR, Air
+from sensor.pneumatic.cylinder import Cylinder, Environment, FixedChambers
+from sensor.pneumatic.lines import DeadVolume, Distributed
+from sensor.pneumatic.unsteady import fitted_kernels
+from sensor.pneumatic.valve import FESTO_MPYE, Valve
+
+STABILITY_LIMIT = 2.0      # symplectic Euler: h omega_max < 2
+DEFAULT_SAFETY = 0.5       # automatic substep: h omega_max <= 1
+MAX_SUBSTEP_S = 1.0e-4     # accuracy cap on the automatic substep
+
+
+@dataclass(frozen=True)
+class Plant:
+    """Supply pressure (absolute, Pa), valve, line model per side, actuator, environment."""
+
+    supply_Pa: float = 6.0e5
+    valve: Valve = FESTO_MPYE
+    line_1: object = field(default_factory=lambda: Distributed(7.25))
+    line_2: object = field(default_factory=lambda: Distributed(7.25))
+    actuator: Cylinder | FixedChambers = field(default_factory=Cylinder)
+    environment: Environment = field(default_factory=Environment)
+    air: Air = AIR
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.supply_Pa) and self.supply_Pa > self.air.atmosphere_Pa):
+            raise SensorError(f"plant supply_Pa = {self.supply_Pa!r}: must be finite and above the "
+                              f"atmosphere ({self.air.atmosphere_Pa} Pa absolute)")
+        for name in ("line_1", "line_2"):
+            if not hasattr(getattr(self, name), "layout"):
+                raise SensorError(f"plant {name}: must be a line model (DeadVolume, RicherHurmuzlu, "
+                                  "TwoVolume or Distributed)")
+
+    def compile(self) -> "CompiledPlant":
+        return CompiledPlant(self)
+
+
+class CompiledPlant:
+    """Packed parameter arrays, state layout and labels of a :class:`Plant`."""
+
+    def __init__(self, plant: Plant) -> None:
+        self.plant = plant
+        air, act, env = plant.air, plant.actuator, plant.environment
+        kern = fitted_kernels()
+        self.kn = np.asarray(kern.poles, float)
+        self.km = np.asarray(kern.friction_weights, float)
+        self.ka = np.asarray(kern.thermal_weights, float)
+        kk = self.kn.size
+        pc = np.zeros(K.N_COMMON)
+        pc[K.RT], pc[K.MU], pc[K.GAMMA], pc[K.PR] = air.rt, air.viscosity_Pa_s, air.gamma, air.prandtl
+        pc[K.PATM], pc[K.PSUP] = air.atmosphere_Pa, plant.supply_Pa
+        pc[K.BCRIT], pc[K.RLAM], pc[K.KREF] = (plant.valve.critical_ratio, plant.valve.laminar_ratio,
+                                               plant.valve.k_ref)
+        if isinstance(act, FixedChambers):
+            pc[K.FIXED] = 1.0
+            pc[K.VD1], pc[K.VD2], pc[K.RPOLY] = act.volume_1_m3, act.volume_2_m3, act.polytropic
+            pc[K.MASS], pc[K.VS] = 1.0, 1.0
+        else:
+            pc[K.A1], pc[K.A2], pc[K.AROD] = act.area_1_m2, act.area_2_m2, act.rod_area_m2
+            pc[K.STROKE], pc[K.VD1], pc[K.VD2] = act.stroke_m, act.dead_volume_1_m3, act.dead_volume_2_m3
+            pc[K.MASS], pc[K.VISC], pc[K.FC] = act.piston_mass_kg, act.viscous_N_s_m, act.coulomb_N
+            pc[K.VS], pc[K.KLEAK] = act.coulomb_velocity_m_s, act.leak_kg_s_Pa
+            pc[K.KSTOP], pc[K.CSTOP], pc[K.RPOLY] = act.stop_stiffness_N_m, act.stop_damping_N_s_m, act.polytropic
+        pc[K.ENV_ATTACHED] = 1.0 if env.attached else 0.0
+        pc[K.ENV_K], pc[K.ENV_B], pc[K.ENV_M], pc[K.ENV_Z0] = (env.stiffness_N_m, env.damping_N_s_m,
+                                                               env.mass_kg, env.contact_m)
+        self.pc = pc
+        self.layouts = (plant.line_1.layout(), plant.line_2.layout())
+        nmax = max(len(lay.node_volumes_m3) for lay in self.layouts)
+        self.ps = np.zeros((2, K.N_SIDE))
+        self.pv = np.zeros((2, nmax))
+        self.off = np.zeros((2, 4), np.int64)
+        self.labels: list[str] = ["piston_position", "piston_velocity"]
+        pos = 2
+        self.delay_s = np.zeros(2)
+        for s, lay in enumerate(self.layouts):
+            nn = len(lay.node_volumes_m3)
+            self.ps[s, K.S_NN], self.ps[s, K.S_INERT], self.ps[s, K.S_BORE] = nn, lay.inertance_m, lay.bore_m
+            self.ps[s, K.S_LAW] = lay.friction_law
+            self.ps[s, K.S_UNSTEADY] = float(lay.unsteady_friction)
+            self.ps[s, K.S_THERMAL] = float(lay.heat_transfer)
+            self.ps[s, K.S_ATTEN], self.ps[s, K.S_LEN] = float(lay.attenuation), lay.length_m
+            if lay.attenuation:
+                self.delay_s[s] = lay.length_m / air.speed_of_sound
+            self.pv[s, :nn] = lay.node_volumes_m3
+            nf = nn - 1
+            ny = nf * kk if lay.unsteady_friction else 0
+            nw = nf * kk if lay.heat_transfer else 0   # tube nodes: all but the chamber node
+            self.off[s] = (pos, pos + nn, pos + nn + nf, pos + nn + nf + ny)
+            tag = f"side{s + 1}"
+            self.labels += [f"{tag}_pressure_{k}" for k in range(nn)]
+            self.labels += [f"{tag}_flow_{j}" for j in range(nf)]
+            self.labels += [f"{tag}_friction_{j}_{i}" for j in range(nf) for i in range(kk)][:ny]
+            self.labels += [f"{tag}_heat_{k}_{i}" for k in range(nf) for i in range(kk)][:nw]
+            pos += nn + nf + ny + nw
+        self.n_states = pos
+        self.grid, self.csup, self.cexh = plant.valve.arrays()
+
+    # --- state helpers -------------------------------------------------------------------
+    def node_count(self, side: int) -> int:
+        return int(self.ps[side, K.S_NN])
+
+    def pressure_slice(self, side: int) -> slice:
+        return slice(int(self.off[side, K.O_P]), int(self.off[side, K.O_P]) + self.node_count(side))
+
+    def flow_slice(self, side: int) -> slice:
+        return slice(int(self.off[side, K.O_M]), int(self.off[side, K.O_M]) + self.node_count(side) - 1)
+
+    def initial_state(self, pressure_1_Pa: float | None = None, pressure_2_Pa: float | None = None,
+                      position_m: float | None = None) -> np.ndarray:
+        """State at rest: uniform side pressures (default atmosphere), piston mid-stroke."""
+        atm = self.plant.air.atmosphere_Pa
+        x = np.zeros(self.n_states)
+        for s, p in enumerate((pressure_1_Pa, pressure_2_Pa)):
+            p = atm if p is None else float(p)
+            if not (math.isfinite(p) and p > 0):
+                raise SensorError(f"initial pressure_{s + 1}_Pa = {p!r}: must be a positive finite number")
+            x[self.pressure_slice(s)] = p
+        if isinstance(self.plant.actuator, Cylinder):
+            stroke = self.plant.actuator.stroke_m
+            z = stroke / 2.0 if position_m is None else float(position_m)
+            if not 0.0 <= z <= stroke:
+                raise SensorError(f"initial position_m = {z!r}: must lie within the stroke [0, {stroke}] m")
+            x[0] = z
+        return x
+
+    def chamber_volumes(self, x: np.ndarray) -> tuple[float, float]:
+        """Total volumes (m^3) of the chamber nodes (chamber plus merged line part)."""
+        v1, v2, _, _ = K.chamber_volumes(x[0], x[1], self.pc)
+        return (v1 + self.pv[0, self.node_count(0) - 1], v2 + self.pv[1, self.node_count(1) - 1])
+
+    def gas_mass(self, x: np.ndarray) -> float:
+        """Total gas mass (kg) in both sides, including the heat-transfer correction of tube nodes."""
+        rt = self.plant.air.rt
+        kappa = (self.plant.air.gamma - 1.0) / self.plant.air.gamma
+        kk = self.kn.size
+        vch = self.chamber_volumes(x)
+        total = 0.0
+        for s in range(2):
+            nn = self.node_count(s)
+            p = x[self.pressure_slice(s)]
+            vols = self.pv[s, :nn].copy()
+            vols[-1] = vch[s]
+            total += float(np.sum(p * vols)) / rt
+            if self.ps[s, K.S_THERMAL] > 0.5 and nn > 1:
+                ow = int(self.off[s, K.O_W])
+                w = x[ow:ow + (nn - 1) * kk].reshape(nn - 1, kk)
+                total -= float(np.sum(self.pv[s, :nn - 1] * kappa * (w @ self.ka))) / rt
+        return total
+
+    # --- dynamics ----------------------------------------------------------------------------
+    def derivative(self, x: np.ndarray, command: float, hold_inlet: bool = False) -> np.ndarray:
+        """Continuous dx/dt at valve command u (transport delays ignored)."""
+        return K.rhs(np.asarray(x, float), float(command), self.pc, self.ps, self.pv, self.off,
+                     self.kn, self.km, self.ka, self.grid, self.csup, self.cexh, hold_inlet)
+
+    def omega_max(self) -> float:
+        """Highest acoustic angular frequency (rad/s) of the segmented lines (adiabatic bound)."""
+        w = 0.0
+        c2 = self.plant.air.gamma * self.plant.air.rt
+        vch = self.chamber_volumes(self.initial_state())
+        for s in range(2):
+            nn = self.node_count(s)
+            if nn < 2:
+                continue
+            vols = self.pv[s, :nn].copy()
+            vols[-1] = vch[s]
+            inc = np.zeros((nn - 1, nn))
+            inc[np.arange(nn - 1), np.arange(nn - 1)] = 1.0
+            inc[np.arange(nn - 1), np.arange(1, nn)] = -1.0
+            stiff = self.ps[s, K.S_INERT] * c2 * inc @ np.diag(1.0 / vols) @ inc.T
+            w = max(w, float(np.sqrt(np.max(np.linalg.eigvalsh(stiff)))))
+        return w
+
+    def substeps(self, dt_s: float, substep_s: float | None = None) -> tuple[int, float]:
+        """(count, length) of the substeps that cover one control period dt_s.
+
+        Automatic: h <= min(1 / omega_max, MAX_SUBSTEP_S).  A requested ``substep_s`` above the
+        stability limit 2 / omega_max raises SensorError."""
+        if not (math.isfinite(dt_s) and dt_s > 0):
+            raise SensorError(f"time step dt_s = {dt_s!r}: must be a positive finite number")
+        wmax = self.omega_max()
+        limit = STABILITY_LIMIT / wmax if wmax > 0 else math.inf
+        if substep_s is None:
+            h_target = min(DEFAULT_SAFETY * limit, MAX_SUBSTEP_S)
+        else:
+            h_target = float(substep_s)
+            if not (math.isfinite(h_target) and h_target > 0):
+                raise SensorError(f"substep_s = {substep_s!r}: must be a positive finite number")
+            if h_target > limit:
+                raise SensorError(
+                    f"substep_s = {h_target:.3g} s: exceeds the stability limit {limit:.3g} s of the "
+                    f"segmented line (2 / omega_max, omega_max = {wmax:.4g} rad/s); use fewer segments "
+                    "or a smaller substep")
+        n = max(1, math.ceil(dt_s / h_target - 1e-9))
+        return n, dt_s / n
+
+    def linear_line_response(self, frequency_Hz, mean_pressure_Pa: float, side: int = 0) -> np.ndarray:
+        """p_end / p_inlet of one side's line, from the plant's own right-hand side linearised
+        numerically (central differences) about rest at ``mean_pressure_Pa`` with the valve shut
+        and the inlet (valve-port) pressure imposed.  Requires FixedChambers."""
+        if not isinstance(self.plant.actuator, FixedChambers):
+            raise SensorError("linear_line_response needs FixedChambers as the actuator")
+        nn = self.node_count(side)
+        if nn < 2:
+            return np.ones(np.shape(frequency_Hz), complex)
+        x0 = self.initial_state(mean_pressure_Pa, mean_pressure_Pa)
+        u_shut = self._shut_command()
+        inlet = int(self.off[side, K.O_P])
+        block_end = int(self.off[1, K.O_P]) if side == 0 else self.n_states
+        idx = np.arange(inlet + 1, block_end)   # this side's states except the imposed inlet
+        pa_like = np.array([("pressure" in lab or "heat" in lab) for lab in self.labels])
+        steps = np.where(pa_like, 1.0, 1e-8)
+        cols = []
+        for i in np.append(idx, inlet):
+            xp, xm = x0.copy(), x0.copy()
+            xp[i] += steps[i]
+            xm[i] -= steps[i]
+            d = self.derivative(xp, u_shut, True) - self.derivative(xm, u_shut, True)
+            cols.append(d[idx] / (2 * steps[i]))
+        a = np.column_stack(cols[:-1])
+        b = cols[-1]
+        end = nn - 2            # position of the chamber node in idx
+        lam, vec = np.linalg.eig(a)
+        left = np.linalg.solve(vec, b)          # modal input weights
+        gain = vec[end, :] * left               # modal residues at the end pressure
+        w = 2 * np.pi * np.asarray(frequency_Hz, float)
+        return (gain[None, :] / (1j * w.reshape(-1, 1) - lam[None, :])).sum(axis=1).reshape(w.shape)
+
+    def _shut_command(self) -> float:
+        """A command at which no valve orifice is open, else 0 (the centre)."""
+        grid = self.grid
+        shut = grid[(self.csup == 0) & (self.cexh[::-1] == 0) & (self.cexh == 0) & (self.csup[::-1] == 0)]
+        return float(shut[np.argmin(np.abs(shut))]) if shut.size else 0.0
