@@ -126,7 +126,8 @@ def plot_pareto(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path) 
         b = sub["basis_hysteresis"].values, sub["basis_sensitivity_mm_per_N"].values
         ax.plot(b[0], b[1], "k--", lw=0.8, alpha=0.6)
     ax.plot([], [], "k--", lw=0.8, label="basis bodies")
-    ax.set_xlabel("predicted hysteresis H (fraction of full scale)")
+    ax.set_xscale("log")  # cells near toggle (phi2 small) reach H ~ 1 and would hide the front
+    ax.set_xlabel("predicted hysteresis H (fraction of full scale, log scale)")
     ax.set_ylabel("sensitivity (mm/N)")
     ax.set_title("Sensitivity against predicted hysteresis")
     ax.legend(fontsize=8)
