@@ -1,4 +1,5 @@
-# Two entry points for a fresh clone: `make run` (the main job) and `make test`.
+# Two entry points for a fresh clone: `make run` (the main job: the default sweep with its
+# Figure 49 contour plots, into ./dacm-out) and `make test`.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -13,8 +14,7 @@ $(BIN)/dacm: pyproject.toml
 setup: $(BIN)/dacm
 
 run: setup
-	$(BIN)/dacm export --preset sample-a --out dacm-out --dxf --stl --json
-	$(BIN)/dacm draw --preset sample-a --out dacm-out/sample-a.png
+	$(BIN)/dacm sweep
 
 test: setup
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2 --dist loadfile; status=$$?; \

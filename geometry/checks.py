@@ -8,6 +8,7 @@ can check thousands of designs.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -66,59 +67,64 @@ def _free_polygons(parts: list[Part]) -> np.ndarray:
                      for p in parts])
 
 
-def _pair_distances(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distances between convex quads (P, P) and an overlap mask (separating-axis test)."""
-    edges_a = poly
-    edges_b = np.roll(poly, -1, axis=1)
-    # point (of i) to segment (of j) distances: (P, P, 4 points, 4 segments)
-    p = poly[:, None, :, None, :]
-    a = edges_a[None, :, None, :, :]
-    b = edges_b[None, :, None, :, :]
-    ab = b - a
-    t = np.clip(np.sum((p - a) * ab, -1) / np.sum(ab * ab, -1), 0.0, 1.0)
-    dist = np.linalg.norm(p - (a + t[..., None] * ab), axis=-1).min(axis=(2, 3))
-    dist = np.minimum(dist, dist.T)
-    # separating axes: edge normals of both polygons
-    normals = np.stack([-(edges_b - edges_a)[..., 1], (edges_b - edges_a)[..., 0]], -1)  # (P,4,2)
-    proj = np.einsum("pvk,qnk->pqnv", poly, normals)  # (P points-poly, Q normal-poly, 4 n, 4 v)
-    lo, hi = proj.min(-1), proj.max(-1)                 # (P, Q, 4)
-    own = np.arange(len(poly))
-    lo_own, hi_own = lo[own, own], hi[own, own]         # (Q, 4): q on its own normals
-    gap_on_q = (hi < lo_own[None] - 1e-9) | (lo > hi_own[None] + 1e-9)  # (P, Q, 4)
-    separated = gap_on_q.any(-1)
-    separated = separated | separated.T
+def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distances between convex quads poly[I] and poly[J] (pairs), and an overlap mask
+    (separating-axis test on the edge normals of both)."""
+    A, B = poly[I], poly[J]                                   # (k, 4, 2)
+
+    def point_to_edges(P, Q):
+        a = Q[:, None, :, :]                                  # (k, 1, 4, 2) edge starts
+        ab = np.roll(Q, -1, axis=1)[:, None] - a              # (k, 1, 4, 2)
+        p = P[:, :, None, :]                                  # (k, 4, 1, 2)
+        t = np.clip(((p - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
+        d = p - a - t[..., None] * ab
+        return (d * d).sum(-1).min(axis=(1, 2))
+
+    dist = np.sqrt(np.minimum(point_to_edges(A, B), point_to_edges(B, A)))
+    separated = np.zeros(len(I), dtype=bool)
+    for Q in (A, B):
+        e = np.roll(Q, -1, axis=1) - Q
+        n = np.stack([-e[..., 1], e[..., 0]], -1)             # (k, 4, 2) edge normals
+        pa = np.einsum("kvd,knd->knv", A, n)
+        pb = np.einsum("kvd,knd->knv", B, n)
+        separated |= ((pa.max(-1) < pb.min(-1) - 1e-9) | (pb.max(-1) < pa.min(-1) - 1e-9)).any(-1)
     return dist, ~separated
 
 
-def _adjacent(parts: list[Part], lay: Layout) -> np.ndarray:
-    """Pairs of parts joined by design (a hinge and its link or root body; a post and base)."""
-    names = [p.name for p in parts]
+_ROOTS = {1: "base plate", 2: "left knee", 3: "left knee", 4: "top plate", 5: "top plate",
+          6: "right knee", 7: "right knee", 8: "base plate", 9: "left knee", 10: "platform",
+          11: "platform", 12: "right knee"}
+
+
+@functools.lru_cache(maxsize=8)
+def _free_pairs(names: tuple[str, ...], kinds: tuple[str, ...], hinges: tuple[int, ...]):
+    """Index pairs (i < j) of parts not joined by design: a hinge is joined to its link and
+    its root body, a link to its own hinges' roots, hinges rooted in one body to each
+    other, and the fiber post to the base plate. Cached per topology."""
     idx = {n: i for i, n in enumerate(names)}
-    adj = np.eye(len(parts), dtype=bool)
+    joined = set()
 
     def join(a, b):
         if a in idx and b in idx:
-            adj[idx[a], idx[b]] = adj[idx[b], idx[a]] = True
+            joined.add((min(idx[a], idx[b]), max(idx[a], idx[b])))
 
     join("fiber post", "base plate")
-    roots = {1: "base plate", 2: "left knee", 3: "left knee", 4: "top plate", 5: "top plate",
-             6: "right knee", 7: "right knee", 8: "base plate", 9: "left knee", 10: "platform",
-             11: "platform", 12: "right knee"}
-    # each member chain is three consecutive parts: hinge, link, hinge
-    for i, p in enumerate(parts):
-        if p.kind == "link":
-            h1, h2 = parts[i - 1], parts[i + 1]
+    for i, kind in enumerate(kinds):
+        if kind == "link":
+            h1, h2 = i - 1, i + 1
             for h in (h1, h2):
-                join(h.name, p.name)
-                join(h.name, roots[h.hinge])
-                join(p.name, roots[h.hinge])  # a link may come close to its own root body
-            join(h1.name, h2.name)
-    # hinges rooted in the same body touch through it
-    for a in parts:
-        for b in parts:
-            if a.kind == "hinge" and b.kind == "hinge" and roots[a.hinge] == roots[b.hinge]:
-                join(a.name, b.name)
-    return adj
+                join(names[h], names[i])
+                join(names[h], _ROOTS[hinges[h]])
+                join(names[i], _ROOTS[hinges[h]])
+            join(names[h1], names[h2])
+    hinge_idx = [i for i, k in enumerate(kinds) if k == "hinge"]
+    for a in hinge_idx:
+        for b in hinge_idx:
+            if a < b and _ROOTS[hinges[a]] == _ROOTS[hinges[b]]:
+                joined.add((a, b))
+    pairs = [(i, j) for i in range(len(names)) for j in range(i + 1, len(names)) if (i, j) not in joined]
+    I, J = np.array(pairs).T
+    return I, J
 
 
 def check_design(d: Design) -> FeasibilityReport:
@@ -168,20 +174,19 @@ def check_design(d: Design) -> FeasibilityReport:
     add("footprint", inside, f"body spans x [{lo[0]:.2f}, {hi[0]:.2f}], y [{lo[1]:.2f}, {hi[1]:.2f}] mm: "
         f"must fit the footprint width_mm = {d.width_mm:g} x height_mm = {d.height_mm:g}")
 
-    dist, overlap = _pair_distances(poly)
-    adj = _adjacent(parts, lay)
-    free = ~adj
-    crossing = np.argwhere(np.triu(overlap & free, 1))
-    if len(crossing):
-        i, j = crossing[0]
-        add("no_crossing", False, f"{parts[i].name} crosses {parts[j].name} "
+    I, J = _free_pairs(tuple(p.name for p in parts), tuple(p.kind for p in parts),
+                       tuple(p.hinge for p in parts))
+    dist, overlap = _pair_distances(poly, I, J)
+    if overlap.any():
+        k = int(np.argmax(overlap))
+        add("no_crossing", False, f"{parts[I[k]].name} crosses {parts[J[k]].name} "
             f"(phi1_deg = {d.phi1_deg:g}, phi2_deg = {d.phi2_deg})")
     else:
         add("no_crossing", True, "no part crosses another")
-    gaps = np.where(np.triu(free, 1) & ~overlap, dist, np.inf)
-    i, j = np.unravel_index(np.argmin(gaps), gaps.shape)
-    add("kerf_gap", gaps[i, j] >= d.kerf_mm - 1e-9,
-        f"gap between {parts[i].name} and {parts[j].name} = {gaps[i, j]:.3f} mm: must be >= kerf_mm = {d.kerf_mm:g} mm")
+    gaps = np.where(overlap, np.inf, dist)
+    k = int(np.argmin(gaps))
+    add("kerf_gap", gaps[k] >= d.kerf_mm - 1e-9,
+        f"gap between {parts[I[k]].name} and {parts[J[k]].name} = {gaps[k]:.3f} mm: must be >= kerf_mm = {d.kerf_mm:g} mm")
 
     if d.is_basis:
         add("platform_inside", d.fiber_clearance_mm >= d.kerf_mm,
