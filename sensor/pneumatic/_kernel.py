@@ -31,6 +31,9 @@ N_COMMON = 29
 # side parameters ps[s, ...]
 S_NN, S_INERT, S_BORE, S_LAW, S_UNSTEADY, S_THERMAL, S_DELAY, S_ATTEN, S_LEN = 0, 1, 2, 3, 4, 5, 6, 7, 8
 N_SIDE = 9
+NU_TOL = 0.01   # relative viscosity change that triggers new relaxation factors
+# fast-math flags without no-NaN / no-Inf, so the runaway check still sees NaN and Inf
+FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 # offsets off[s, ...]
 O_P, O_M, O_Y, O_W = 0, 1, 2, 3
 
@@ -40,13 +43,12 @@ def steady_coefficient(mdot, nu, bore, law, mu):
     """Steady friction coefficient f (1/s) on the mass flow (eq 54's f)."""
     re = 4.0 * abs(mdot) / (math.pi * bore * mu)
     lam = 32.0 * nu / (bore * bore)
-    turb = 0.158 * re**0.75 * nu / (bore * bore)
     if law == 0:
-        return lam + turb
+        return lam + 0.158 * re**0.75 * nu / (bore * bore)
     if re <= 2300.0:
         return lam
     if re >= 4000.0:
-        return turb
+        return 0.158 * re**0.75 * nu / (bore * bore)
     t4000 = 0.158 * 4000.0**0.75 * nu / (bore * bore)
     return lam + (t4000 - lam) * (re - 2300.0) / 1700.0
 
@@ -183,19 +185,55 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
     return dx
 
 
-@njit(cache=True)
-def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc):
+@njit(cache=True, fastmath=FAST)
+def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work):
     """Advance the state x in place by nsub substeps of h seconds at valve command u.
 
     ring[s, :] holds past valve flows of a Richer-Hurmuzlu side (delay ps[s, S_DELAY] substeps,
     head the current ring index, returned updated).  acc[s] accumulates the valve mass (kg)
     delivered into side s, acc[2 + s] the mass delivered into its chamber; acc[4] is the
-    environment force F_e (N) at the end of the step."""
+    environment force F_e (N) at the end of the step.  work: scratch of shape
+    (2, nodes, 4 K + 5), zero on the first call (see :func:`work_array`).  Returns (head, index of the first
+    non-finite or runaway state or -1, see :func:`first_bad`)."""
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
     kappa = (gam - 1.0) / gam
     kk = kn.size
     nring = ring.shape[1]
     mass_eff = pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0)
+    # relaxation factors e = exp(-beta h) and phi = (1 - e) / (beta h) of each element (friction)
+    # and tube node (heat transfer), kept in work[s, j] and recomputed only when the local
+    # kinematic viscosity has moved by more than NU_TOL since they were computed
+    ef = work[:, :, 0:kk]
+    pf = work[:, :, kk:2 * kk]
+    et = work[:, :, 2 * kk:3 * kk]
+    pt = work[:, :, 3 * kk:4 * kk]
+    c16 = work[:, :, 4 * kk]
+    for s in range(2):
+        op = off[s, O_P]
+        d2 = ps[s, S_BORE] * ps[s, S_BORE]
+        for j in range(int(ps[s, S_NN]) - 1):
+            nu = mu * 2.0 * rt / (x[op + j] + x[op + j + 1])
+            if abs(nu - work[s, j, 4 * kk + 1]) > NU_TOL * nu or work[s, j, 4 * kk + 3] != h:
+                work[s, j, 4 * kk + 1] = nu
+                work[s, j, 4 * kk + 3] = h
+                c16[s, j] = 16.0 * nu / d2
+                for i in range(kk):
+                    bh = 4.0 * nu * kn[i] / d2 * h
+                    ef[s, j, i] = math.exp(-bh)
+                    pf[s, j, i] = -math.expm1(-bh) / bh
+            nu = mu * rt / x[op + j]
+            if abs(nu - work[s, j, 4 * kk + 2]) > NU_TOL * nu or work[s, j, 4 * kk + 4] != h:
+                work[s, j, 4 * kk + 2] = nu
+                work[s, j, 4 * kk + 4] = h
+                for i in range(kk):
+                    bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
+                    et[s, j, i] = math.exp(-bh)
+                    pt[s, j, i] = -math.expm1(-bh) / bh
+    cond = np.empty((2, 2))   # (side, supply / exhaust) conductance at this command
+    for s in range(2):
+        us = u if s == 0 else -u
+        cond[s, 0] = np.interp(us, grid, csup)
+        cond[s, 1] = np.interp(us, grid, cexh)
     for _ in range(nsub):
         z, v = x[0], x[1]
         vol1, vol2, _, _ = chamber_volumes(z, v, pc)
@@ -222,28 +260,23 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
             # (2) element flows
             for j in range(nn - 1):
                 pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
-                nu = mu * 2.0 * rt / (pa + pb)
-                fs = steady_coefficient(m, nu, bore, ps[s, S_LAW], mu)
+                fs = steady_coefficient(m, mu * 2.0 * rt / (pa + pb), bore, ps[s, S_LAW], mu)
                 drive = ps[s, S_INERT] * (pa - pb)
                 extra = 0.0
                 if uns:
-                    c16 = 16.0 * nu / d2
+                    c = c16[s, j]
                     for i in range(kk):
-                        bh = 4.0 * nu * kn[i] / d2 * h
-                        e = math.exp(-bh)
-                        phi = -math.expm1(-bh) / bh
-                        extra += h * c16 * km[i] * phi
-                        drive -= c16 * km[i] * x[oy + j * kk + i] * e
+                        extra += h * c * km[i] * pf[s, j, i]
+                        drive -= c * km[i] * x[oy + j * kk + i] * ef[s, j, i]
                 mn = (m * (1.0 + extra) + h * drive) / (1.0 + h * fs + extra)
                 x[om + j] = mn
                 if uns:
                     for i in range(kk):
-                        bh = 4.0 * nu * kn[i] / d2 * h
-                        e = math.exp(-bh)
-                        x[oy + j * kk + i] = x[oy + j * kk + i] * e - (mn - m) * math.expm1(-bh) / bh
+                        x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + (mn - m) * pf[s, j, i]
             # (3) nodes
-            sgn = 1.0 if s == 0 else -1.0
-            mv, dmv = port_flow(sgn * u, grid, csup, cexh, pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[PATM], pc[KREF])
+            m_in, _, din = orifice_flow(cond[s, 0], pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[KREF])
+            m_out, dout, _ = orifice_flow(cond[s, 1], pc[BCRIT], pc[RLAM], x[op], pc[PATM], pc[KREF])
+            mv, dmv = m_in - m_out, din - dout
             delayed = ps[s, S_ATTEN] > 0.5
             if delayed:
                 ring[s, head] = mv
@@ -281,25 +314,20 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     cap = pv[s, k] / rt
                     rhs_ = h * flow
                     if the:
-                        nu = mu * rt / p
                         sa = 0.0
                         for i in range(kk):
-                            bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
-                            e = math.exp(-bh)
-                            sa -= ka[i] * math.expm1(-bh) / bh
-                            rhs_ += cap * kappa * ka[i] * x[ow + k * kk + i] * (e - 1.0)
+                            sa += ka[i] * pt[s, k, i]
+                            rhs_ += cap * kappa * ka[i] * x[ow + k * kk + i] * (et[s, k, i] - 1.0)
                         dp = rhs_ / (cap * (1.0 - kappa * sa) - h * g)
                         for i in range(kk):
-                            bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
-                            e = math.exp(-bh)
-                            x[ow + k * kk + i] = x[ow + k * kk + i] * e - dp * math.expm1(-bh) / bh
+                            x[ow + k * kk + i] = x[ow + k * kk + i] * et[s, k, i] + dp * pt[s, k, i]
                     else:
                         dp = rhs_ / (cap - h * g)
                     pn = p + dp
                     if k == 0:
                         acc[s] += h * (mv + g * dp)
                 x[op + k] = pn
-    return head
+    return head, first_bad(x, off, ps, vmax)
 
 
 @njit(cache=True)
@@ -317,3 +345,8 @@ def first_bad(x, off, ps, vmax):
             if p <= 0.0 or p > 1e8:
                 return off[s, O_P] + k
     return -1
+
+
+def work_array(pv, kn):
+    """Zeroed scratch array for :func:`advance`."""
+    return np.zeros((2, pv.shape[1], 4 * kn.size + 5))

@@ -1,0 +1,121 @@
+"""Fixed-rate controller loop around the plant; results as a labelled xarray dataset.
+
+A controller is any callable ``controller(t, measurements) -> u`` returning the valve
+command u in [-1, 1] (clipped), called at ``rate_Hz`` (default 1 kHz) with a dict of sensor
+readings (keys in :data:`MEASUREMENT_KEYS`, SI units).  The command is held between samples
+while the compiled stepper integrates the plant (see :mod:`._kernel`).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import xarray as xr
+
+from sensor.errors import SensorError
+from sensor.pneumatic import _kernel as K
+from sensor.pneumatic.plant import CompiledPlant, Plant
+from sensor.pneumatic.sensors import DifferentiatingFilter, Sensors
+
+MEASUREMENT_KEYS = ("position_m", "velocity_m_s", "acceleration_m_s2", "force_N",
+                    "pressure_valve_1_Pa", "pressure_valve_2_Pa",
+                    "pressure_chamber_1_Pa", "pressure_chamber_2_Pa")
+MAX_VELOCITY_M_S = 100.0
+
+
+def constant_command(u: float) -> Callable[[float, dict], float]:
+    """Open-loop controller holding command u."""
+    return lambda t, m: u
+
+
+def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], float], duration_s: float,
+             rate_Hz: float = 1000.0, sensors: Sensors | None = None, initial_state: np.ndarray | None = None,
+             substep_s: float | None = None) -> xr.Dataset:
+    """Run the loop for ``duration_s`` and return every state, command and reading over time."""
+    cp = plant if isinstance(plant, CompiledPlant) else plant.compile()
+    if not (math.isfinite(duration_s) and duration_s > 0):
+        raise SensorError(f"duration_s = {duration_s!r}: must be a positive finite number")
+    if not (math.isfinite(rate_Hz) and rate_Hz > 0):
+        raise SensorError(f"rate_Hz = {rate_Hz!r}: must be a positive finite number")
+    dt = 1.0 / rate_Hz
+    nsub, h = cp.substeps(dt, substep_s)
+    sensors = Sensors() if sensors is None else sensors
+    x = cp.initial_state() if initial_state is None else np.array(initial_state, float)
+    if x.shape != (cp.n_states,):
+        raise SensorError(f"initial_state has shape {x.shape}: must be ({cp.n_states},)")
+    nsteps = int(round(duration_s * rate_Hz))
+    delays = np.round(cp.delay_s / h).astype(int)
+    ps = cp.ps.copy()
+    ps[:, K.S_DELAY] = delays
+    ring = np.zeros((2, int(delays.max()) + 1))
+    head = 0
+    acc = np.zeros(5)
+    work = K.work_array(cp.pv, cp.kn)
+    states = np.empty((nsteps + 1, cp.n_states))
+    commands = np.full(nsteps + 1, np.nan)
+    meas = np.empty((nsteps + 1, len(MEASUREMENT_KEYS)))
+    valve_flow = np.full((nsteps + 1, 2), np.nan)
+    chamber_flow = np.full((nsteps + 1, 2), np.nan)
+    force = np.empty(nsteps + 1)
+    vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+    acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+    p_valve = (int(cp.off[0, K.O_P]), int(cp.off[1, K.O_P]))
+    p_ch = (p_valve[0] + cp.node_count(0) - 1, p_valve[1] + cp.node_count(1) - 1)
+    args = (cp.pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid, cp.csup, cp.cexh)
+    _, _, _, acc[4] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
+    read_pos, read_f = sensors.position.read, sensors.force.read
+    read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
+    read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
+    for k in range(nsteps + 1):
+        t = k * dt
+        states[k] = x
+        force[k] = acc[4]
+        z = read_pos(x[0], t)
+        vz = vel_f.update(z)
+        m = (z, vz, acc_f.update(vz), read_f(acc[4], t), read_v1(x[p_valve[0]], t), read_v2(x[p_valve[1]], t),
+             read_c1(x[p_ch[0]], t), read_c2(x[p_ch[1]], t))
+        meas[k] = m
+        if k == nsteps:
+            break
+        u = controller(t, dict(zip(MEASUREMENT_KEYS, m)))
+        u = float(u)
+        if not math.isfinite(u):
+            raise SensorError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
+        u = min(1.0, max(-1.0, u))
+        commands[k] = u
+        acc[:4] = 0.0
+        head, bad = K.advance(x, u, nsub, h, *args, ring, head, acc, MAX_VELOCITY_M_S, work)
+        valve_flow[k] = acc[:2] / dt
+        chamber_flow[k] = acc[2:4] / dt
+        if bad >= 0:
+            raise SensorError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
+                              f"{x[bad]!r} is not finite or outside its physical range")
+    return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, nsub, h, p_valve, p_ch)
+
+
+def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, nsub, h, p_valve, p_ch):
+    time = np.arange(states.shape[0]) * dt
+    side = [1, 2]
+    ds = xr.Dataset(
+        {
+            "states": (("time", "state"), states),
+            "piston_position": ("time", states[:, 0], {"units": "m"}),
+            "piston_velocity": ("time", states[:, 1], {"units": "m/s"}),
+            "pressure_valve": (("time", "side"), states[:, list(p_valve)], {"units": "Pa"}),
+            "pressure_chamber": (("time", "side"), states[:, list(p_ch)], {"units": "Pa"}),
+            "valve_mass_flow": (("time", "side"), valve_flow,
+                                {"units": "kg/s", "note": "mean over the control period starting at time"}),
+            "chamber_mass_flow": (("time", "side"), chamber_flow,
+                                  {"units": "kg/s", "note": "line into chamber, mean over the period"}),
+            "environment_force": ("time", force, {"units": "N"}),
+            "command": ("time", commands, {"units": "1", "note": "valve command held over the period"}),
+        },
+        coords={"time": ("time", time, {"units": "s"}), "side": side, "state": cp.labels},
+        attrs={"rate_Hz": 1.0 / dt, "substeps": nsub, "substep_s": h,
+               "line_1": repr(cp.plant.line_1), "line_2": repr(cp.plant.line_2),
+               "valve": cp.plant.valve.name, "supply_Pa": cp.plant.supply_Pa},
+    )
+    for j, key in enumerate(MEASUREMENT_KEYS):
+        ds[f"measured_{key}"] = ("time", meas[:, j])
+    return ds
