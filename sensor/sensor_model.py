@@ -279,7 +279,7 @@ def _checked_forces(forces_N, range_N: float, overload: str) -> tuple[np.ndarray
         raise SensorRangeError(f"forces_N has shape {f.shape}: must be a 1-D force history")
     bad = np.flatnonzero(~np.isfinite(f))
     if len(bad):
-        raise SensorRangeError(f"force_N[{bad[0]}] = {f[bad[0]]!r}: must be a finite number (N)")
+        raise SensorRangeError(f"force_N[{bad[0]}] = {float(f[bad[0]])!r}: must be a finite number (N)")
     out = (f < 0.0) | (f > range_N)
     if overload == "raise" and out.any():
         i = int(np.flatnonzero(out)[0])
