@@ -1,0 +1,72 @@
+"""Datasheets of the three thesis specimens as cut (Table 7 hinges), their cross-axis
+sensitivity, and a picture of their calibration loops (like thesis Figures 43 and 45).
+
+Also shows two variants: the basis body in ABS (thesis Figures 44-45) and sample A with the
+fiber 1.2 mm from the mirror, so that it works in the thesis' 0.2-1.2 mm interval.
+
+    python examples/sensor_datasheets.py [--out sensor-specimens.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from geometry.atomic import atomic_path  # noqa: E402
+from geometry.params import MATERIALS, preset  # noqa: E402
+from sensor.hysteresis import TABLE6  # noqa: E402
+from sensor.sensor_model import build_sensor, cross_axis, datasheet, loading_cycle  # noqa: E402
+
+SPECIMENS = ("basis", "sample-a", "sample-b")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default="sensor-specimens.png")
+    args = parser.parse_args()
+
+    designs = [preset(f"{n}-as-cut") for n in SPECIMENS]
+    designs.append(preset("basis-as-cut").replace(material=MATERIALS["abs"], name="basis-as-cut-abs"))
+    designs.append(preset("sample-a-as-cut").replace(fiber_clearance_mm=1.2, name="sample-a-as-cut-gap1.2"))
+    print(f"{'design':24s} {'range N':>8s} {'mV/N':>7s} {'res mN':>7s} {'nonlin %':>9s} "
+          f"{'hyst %':>7s} {'H mech %':>8s} {'quality':>8s} {'cross %':>8s} {'at mm':>6s}")
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    for d in designs:
+        s = build_sensor(d)
+        ds = datasheet(s, d.material.name)
+        c = cross_axis(d, s.input_travel_mm)
+        print(f"{d.name:24s} {ds.range_N:8.3f} {ds.sensitivity_mV_per_N:7.1f} "
+              f"{ds.resolution_N * 1e3:7.3f} {ds.nonlinearity_pct:9.2f} {ds.hysteresis_pct:7.2f} "
+              f"{ds.hysteresis_mechanical_pct:8.2f} {ds.quality_mV_per_N:8.0f} "
+              f"{c.ratio_pct:8.3f} {c.imposed_travel_mm:6.3f}")
+        base = d.name.removesuffix("-as-cut")
+        if base in SPECIMENS:
+            ax = axes[SPECIMENS.index(base)]
+            n = len(s.calibration.force_table)
+            r = s.read(loading_cycle(s.range_N, n))
+            ax.plot(r.force_N[:n], r.volts[:n], color="tab:blue", label="loading")
+            ax.plot(r.force_N[n - 1:], r.volts[n - 1:], color="tab:red", label="unloading")
+            ax.set(xlabel="force (N)", ylabel="output (V)",
+                   title=f"{d.name}: H {ds.hysteresis_pct:.1f} %, {ds.sensitivity_mV_per_N:.0f} mV/N")
+            ax.legend(fontsize=8, loc="upper left")
+    print("Table 6 measured quality (mm/N): "
+          + ", ".join(f"{n} {TABLE6[n].quality:.2f}" for n in SPECIMENS))
+    for lateral in (1.0,):
+        c = cross_axis(preset("basis-as-cut"), lateral)
+        print(f"basis-as-cut at {lateral} mm imposed travel (the thesis protocol): cross-axis "
+              f"{c.ratio_pct:.2f} % (+x {c.lateral_mirror_travel_mm[0] * 1e3:.1f} um, "
+              f"-x {c.lateral_mirror_travel_mm[1] * 1e3:.1f} um, lateral force "
+              f"{c.lateral_force_N:.3f} N); thesis 1.66 % delrin, 3.29 % ABS")
+    fig.tight_layout()
+    with atomic_path(args.out) as tmp:
+        fig.savefig(tmp, dpi=80, format="png")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
