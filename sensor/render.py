@@ -161,6 +161,11 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
 
 # --- the displacement field -----------------------------------------------------------------
 
+def _wrap(a):
+    """Angle(s) wrapped to [-pi, pi)."""
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
 def _rigid(X: np.ndarray, Xn: np.ndarray, un: np.ndarray, th: float) -> np.ndarray:
     """Displacement (P, 2) of points X moving rigidly with a node: u_n + (R - I)(X - X_n)."""
     r = X - Xn
@@ -189,10 +194,6 @@ def _member(X: np.ndarray, Xa, Xb, xa, xb, tha: float, thb: float) -> np.ndarray
     along = xi * L + c * e - sn * h                   # in the chord frame (e1, e2)
     across = w + sn * e + c * h
     return xa + along[:, None] * e1 + across[:, None] * e2 - X
-
-
-def _wrap(a):
-    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 def displacement_field(points: np.ndarray, parts: list[Part], motions: list[PartMotion],
