@@ -209,15 +209,17 @@ class CompiledPlant:
         n = max(1, math.ceil(dt_s / h_target - 1e-9))
         return n, dt_s / n
 
-    def linear_line_response(self, frequency_Hz, mean_pressure_Pa: float, side: int = 0) -> np.ndarray:
-        """p_end / p_inlet of one side's line, from the plant's own right-hand side linearised
-        numerically (central differences) about rest at ``mean_pressure_Pa`` with the valve shut
-        and the inlet (valve-port) pressure imposed.  Requires FixedChambers."""
+    def linear_line_model(self, mean_pressure_Pa: float, side: int = 0) -> "ModalResponse":
+        """Linearised line of one side: p_end / p_inlet as a sum of modes.
+
+        The plant's own right-hand side is linearised numerically (central differences) about
+        rest at ``mean_pressure_Pa`` with the valve shut and the inlet (valve-port) pressure
+        imposed; the state matrix is diagonalised once.  Requires FixedChambers."""
         if not isinstance(self.plant.actuator, FixedChambers):
-            raise SensorError("linear_line_response needs FixedChambers as the actuator")
+            raise SensorError("linear_line_model needs FixedChambers as the actuator")
         nn = self.node_count(side)
         if nn < 2:
-            return np.ones(np.shape(frequency_Hz), complex)
+            return ModalResponse(np.zeros(0, complex), np.zeros(0, complex), 1.0)
         x0 = self.initial_state(mean_pressure_Pa, mean_pressure_Pa)
         u_shut = self._shut_command()
         inlet = int(self.off[side, K.O_P])
@@ -233,16 +235,30 @@ class CompiledPlant:
             d = self.derivative(xp, u_shut, True) - self.derivative(xm, u_shut, True)
             cols.append(d[idx] / (2 * steps[i]))
         a = np.column_stack(cols[:-1])
-        b = cols[-1]
-        end = nn - 2            # position of the chamber node in idx
         lam, vec = np.linalg.eig(a)
-        left = np.linalg.solve(vec, b)          # modal input weights
-        gain = vec[end, :] * left               # modal residues at the end pressure
-        w = 2 * np.pi * np.asarray(frequency_Hz, float)
-        return (gain[None, :] / (1j * w.reshape(-1, 1) - lam[None, :])).sum(axis=1).reshape(w.shape)
+        left = np.linalg.solve(vec, cols[-1])   # modal input weights
+        return ModalResponse(lam, vec[nn - 2, :] * left, 0.0)
+
+    def linear_line_response(self, frequency_Hz, mean_pressure_Pa: float, side: int = 0) -> np.ndarray:
+        """Complex p_end / p_inlet at each frequency (Hz), see :meth:`linear_line_model`."""
+        return self.linear_line_model(mean_pressure_Pa, side)(frequency_Hz)
 
     def _shut_command(self) -> float:
         """A command at which no valve orifice is open, else 0 (the centre)."""
         grid = self.grid
         shut = grid[(self.csup == 0) & (self.cexh[::-1] == 0) & (self.cexh == 0) & (self.csup[::-1] == 0)]
         return float(shut[np.argmin(np.abs(shut))]) if shut.size else 0.0
+
+
+@dataclass(frozen=True)
+class ModalResponse:
+    """H(j w) = direct + sum_k residues_k / (j w - poles_k) (poles in rad/s)."""
+
+    poles: np.ndarray
+    residues: np.ndarray
+    direct: float
+
+    def __call__(self, frequency_Hz) -> np.ndarray:
+        w = 2 * np.pi * np.asarray(frequency_Hz, float)
+        terms = self.residues[None, :] / (1j * w.reshape(-1, 1) - self.poles[None, :])
+        return (self.direct + terms.sum(axis=1)).reshape(w.shape)

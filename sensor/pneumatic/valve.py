@@ -151,15 +151,16 @@ class Valve:
         return out
 
     def command_for_conductance(self, conductance: float) -> float:
-        """Command u >= 0 whose port-1 supply conductance equals ``conductance`` (inverse calibration)."""
+        """Smallest command u whose port-1 supply conductance equals ``conductance`` (inverse
+        calibration, for controllers that compute a conductance, eq 51)."""
         grid, cs, _ = self.arrays()
-        keep = grid >= 0
-        g, c = grid[keep], cs[keep]
-        if conductance < 0 or conductance > c.max():
-            raise SensorError(f"conductance = {conductance!r}: must lie in [0, {c.max():.3e}] m^3/(s Pa)")
-        c_mono = np.maximum.accumulate(c)
-        first = np.searchsorted(c_mono, conductance)
-        return float(np.interp(conductance, c_mono[first:], g[first:])) if first < c.size else 1.0
+        if not (0 <= conductance <= cs.max()):
+            raise SensorError(f"conductance = {conductance!r}: must lie in [0, {cs.max():.3e}] m^3/(s Pa)")
+        c = np.maximum.accumulate(cs)
+        i = int(np.searchsorted(c, conductance))
+        if i == 0 or c[i] == c[i - 1]:
+            return float(grid[i])
+        return float(grid[i - 1] + (grid[i] - grid[i - 1]) * (conductance - c[i - 1]) / (c[i] - c[i - 1]))
 
 
 _U = (-1.0, -0.5, -0.2, -0.1, -0.05, 0.0, 0.05, 0.1, 0.2, 0.5, 1.0)
