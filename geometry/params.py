@@ -93,7 +93,7 @@ class Design:
     platform_width_mm: float = 4.0
     platform_thickness_mm: float = 2.0
     fiber_post_width_mm: float = 3.0
-    fiber_clearance_mm: float = 1.5
+    fiber_clearance_mm: float = 1.2
     material: Material = MATERIALS["delrin"]
     kerf_mm: float = 0.8
     min_feature_mm: float = 0.25
