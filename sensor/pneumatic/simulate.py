@@ -44,6 +44,10 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     x = cp.initial_state() if initial_state is None else np.array(initial_state, float)
     if x.shape != (cp.n_states,):
         raise SensorError(f"initial_state has shape {x.shape}: must be ({cp.n_states},)")
+    bad = K.first_bad(x, cp.off, cp.ps, MAX_VELOCITY_M_S)
+    if bad >= 0:
+        raise SensorError(f"simulation stopped at t = 0 s: state {cp.labels[bad]} = {float(x[bad])!r} "
+                          "is not finite or outside its physical range")
     nsteps = int(round(duration_s * rate_Hz))
     delays = np.round(cp.delay_s / h).astype(int)
     ps = cp.ps.copy()
@@ -90,7 +94,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
         chamber_flow[k] = acc[2:4] / dt
         if bad >= 0:
             raise SensorError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
-                              f"{x[bad]!r} is not finite or outside its physical range")
+                              f"{float(x[bad])!r} is not finite or outside its physical range")
     return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, nsub, h, p_valve, p_ch)
 
 
