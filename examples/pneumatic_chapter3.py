@@ -12,7 +12,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 from geometry.atomic import atomic_path  # noqa: E402
 from sensor.pneumatic.air import AIR  # noqa: E402

@@ -15,7 +15,7 @@ from sensor.errors import SensorError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.air import AIR, Air
 from sensor.pneumatic.cylinder import Cylinder, Environment, FixedChambers
-from sensor.pneumatic.lines import DeadVolume, Distributed
+from sensor.pneumatic.lines import Distributed
 from sensor.pneumatic.unsteady import fitted_kernels
 from sensor.pneumatic.valve import FESTO_MPYE, Valve
 

@@ -44,7 +44,7 @@ def test_flow_continuous_monotonic_and_zero_at_equal_pressures():
 
 
 def test_four_way_ports_have_opposite_areas():
-    atm, sup = AIR.atmosphere_Pa, 6e5
+    sup = 6e5
     for valve in (FESTO_MPYE, ENFIELD_LH05):
         for u in (0.3, 1.0):
             assert valve.mass_flow(u, sup, 3e5, port=1) > 0 > valve.mass_flow(u, sup, 3e5, port=2)
@@ -53,7 +53,6 @@ def test_four_way_ports_have_opposite_areas():
     assert ENFIELD_LH05.conductances(0.0) == (0.0, 0.0)
     cs, ce = FESTO_MPYE.conductances(0.0)
     assert 0 < cs <= 0.015 * max(FESTO_MPYE.supply_conductance) and cs == ce
-    assert atm < sup
 
 
 def test_inverse_calibration_round_trip():
