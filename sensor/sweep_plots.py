@@ -17,6 +17,7 @@ from geometry.atomic import atomic_path  # noqa: E402
 #: Thesis specimens marked on every panel (Table 5).
 SAMPLES = {"A": (21.0, 34.0), "B": (22.0, 17.2)}
 
+#: Axis labels of the ratio variables (the Monte-Carlo robust quality has no panel of its own).
 PANELS = {
     "ratio_amplification": "amplification ratio A / A_basis",
     "ratio_k_out": "output stiffness ratio k_out / k_out,basis",
@@ -24,6 +25,7 @@ PANELS = {
     "ratio_hysteresis": "predicted hysteresis ratio H / H_basis",
     "ratio_quality": "quality ratio (sensitivity/H) / basis",
 }
+LABELS = {**PANELS, "robust_quality_ratio": "robust quality (10th percentile) / basis quality"}
 
 
 def _save(fig, path: Path, formats=("png", "svg")) -> list[Path]:
@@ -54,7 +56,7 @@ def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
         if finite.min() < 1 < finite.max():
             one = ax.contour(x, y, z, levels=[1.0], colors="crimson", linewidths=2.2)
             ax.clabel(one, fmt="1", fontsize=8)
-        plt.colorbar(cf, ax=ax, label=PANELS.get(var, var), shrink=0.9)
+        plt.colorbar(cf, ax=ax, label=LABELS.get(var, var), shrink=0.9)
     # infeasible cells hatched
     mask = (~feas).T.astype(float)
     if mask.any():
@@ -65,7 +67,7 @@ def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
         ax.annotate(f"sample {name}", (p1, p2), xytext=(5, 5), textcoords="offset points", fontsize=8)
     ax.set_xlabel("phi1 (deg): side-link lean from vertical")
     ax.set_ylabel("phi2 (deg): middle-link rise above horizontal")
-    ax.set_title(f"{PANELS.get(var, var)}\nhinge set {hinges}", fontsize=9)
+    ax.set_title(f"{LABELS.get(var, var)}\nhinge set {hinges}", fontsize=9)
 
 
 def plot_figure49(ds: xr.Dataset, out_dir: Path) -> list[Path]:
