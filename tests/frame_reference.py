@@ -71,9 +71,13 @@ class FrameResult:
     output_travel_mm: float
     strain_energy_mJ: float
     gradient_norm: float   # |dPi/dq| at the returned state (N and N mm)
-    stable: bool           # the Hessian of Pi is positive definite (a minimum, not a saddle)
+    negative_modes: int    # negative eigenvalues of the Hessian of Pi (0: a minimum)
     n_dof: int
     iterations: int        # Newton iterations over all load steps
+
+    @property
+    def stable(self) -> bool:
+        return self.negative_modes == 0
 
     @property
     def amplification(self) -> float:
@@ -284,14 +288,21 @@ def _result(frame: Frame, q: np.ndarray, force: float, iterations: int) -> Frame
     u, th, _ = node_state(frame, q)
     energy, _, _ = _segments(frame, u, th, 0)
     _, g = potential(frame, q, force)
-    try:
-        np.linalg.cholesky(hessian(frame, q, force).toarray())
-        stable = True
-    except np.linalg.LinAlgError:
-        stable = False
     return FrameResult(force, float(frame.input_dir @ u[frame.input_node]),
                        float(frame.output_dir @ u[frame.output_node]), float(energy.sum()),
-                       float(np.linalg.norm(g)), stable, frame.n_dof, iterations)
+                       float(np.linalg.norm(g)), negative_eigenvalues(hessian(frame, q, force)),
+                       frame.n_dof, iterations)
+
+
+def negative_eigenvalues(H: sp.spmatrix) -> int:
+    """Number of negative eigenvalues of a symmetric sparse matrix, by Sylvester's law of
+    inertia: SuperLU in symmetric mode without row pivoting gives P H P^T = L D L^T, and the
+    signs of D (the diagonal of U = D L^T) are those of the eigenvalues."""
+    lu = splu(H.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+              options={"SymmetricMode": True})
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        raise RuntimeError("reference frame: the LU pivoted off the diagonal; inertia unknown")
+    return int((lu.U.diagonal() < 0).sum())
 
 
 def split_members(model: BeamModel, n: int) -> BeamModel:
