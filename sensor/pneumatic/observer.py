@@ -1,0 +1,198 @@
+"""Force-feedback pressure observer of chapter IV (eqs 19-24) and its two baselines.
+
+States are the stored energies x_i = P_i V_i (eq 19) with V_i the chamber volume from the
+position reading plus the line volume (eqs 16, 20-21).  The observer integrates
+
+    x_hat_i' = m_hat_i R T + k f_i                                       (eq 22)
+
+with m_hat_i the valve flow (eq 14) computed at the estimated pressures and f_1, f_2 the
+expressions of eqs 23-24, which already contain the force error F_hat_p - F_p (DESIGN
+section 11: it is not multiplied in again).  F_p is the actuator force measured through eq 18
+from the force and position readings: F_p = F_e + M z'' + B z' with z', z'' the filtered
+derivatives of the position (first-order filter, 50 Hz, thesis 4.2.3).
+
+Kinds: ``force`` (the observer, k > 0), ``standard`` (k = 0: the open-loop standard model) and
+``valve`` (the valve-port pressure readings taken as chamber pressures).
+
+The 2-state system is stepped at the control rate with the linearly implicit Euler rule
+x+ = x + h (I - h J)^-1 F(x), J the exact Jacobian (valve-flow slope and the correction's
+constant matrix), so any k >= 0 is stable at any step.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from sensor.errors import SensorError
+from sensor.pneumatic.cylinder import Cylinder
+from sensor.pneumatic.valve import port_flow
+
+OBSERVER_KINDS = ("force", "standard", "valve")
+
+# packed model vector q[...]
+Q_RT, Q_PATM, Q_PSUP, Q_BCRIT, Q_RLAM, Q_KREF = 0, 1, 2, 3, 4, 5
+Q_A1, Q_A2, Q_AROD, Q_STROKE, Q_V01, Q_V02, Q_MASS, Q_VISC = 6, 7, 8, 9, 10, 11, 12, 13
+N_Q = 14
+
+
+@dataclass(frozen=True)
+class ObserverModel:
+    """The standard model the observer (and the model-based controllers) use, SI units.
+
+    Chamber i volume V_i = V0_i + A_i * stroke fraction (eqs 20-21): V_1 = V0_1 + A_1 z,
+    V_2 = V0_2 + A_2 (stroke - z), V0_i = the chamber's dead volume plus the nominal line
+    volume (eq 16).  M, B: piston mass and viscous damping of eq 18.
+    """
+
+    q: np.ndarray
+    grid: np.ndarray
+    supply_conductance: np.ndarray
+    exhaust_conductance: np.ndarray
+    line_volume_m3: tuple[float, float]
+    line_length_m: tuple[float, float]
+    line_bore_m: tuple[float, float]
+    viscosity_Pa_s: float
+
+    @classmethod
+    def from_plant(cls, plant) -> "ObserverModel":
+        """Nominal parameters of a :class:`~sensor.pneumatic.plant.Plant` (cylinder only)."""
+        act, air, valve = plant.actuator, plant.air, plant.valve
+        if not isinstance(act, Cylinder):
+            raise SensorError(f"plant actuator = {type(act).__name__}: the observer needs a Cylinder "
+                              "(piston force and moving chamber volumes, eqs 17-21)")
+        q = np.zeros(N_Q)
+        q[Q_RT], q[Q_PATM], q[Q_PSUP] = air.rt, air.atmosphere_Pa, plant.supply_Pa
+        q[Q_BCRIT], q[Q_RLAM], q[Q_KREF] = valve.critical_ratio, valve.laminar_ratio, valve.k_ref
+        q[Q_A1], q[Q_A2], q[Q_AROD], q[Q_STROKE] = act.area_1_m2, act.area_2_m2, act.rod_area_m2, act.stroke_m
+        q[Q_V01] = act.dead_volume_1_m3 + plant.line_1.volume_m3
+        q[Q_V02] = act.dead_volume_2_m3 + plant.line_2.volume_m3
+        q[Q_MASS], q[Q_VISC] = act.piston_mass_kg, act.viscous_N_s_m
+        grid, cs, ce = valve.arrays()
+        lines = (plant.line_1, plant.line_2)
+        return cls(q, grid, cs, ce, tuple(float(ln.volume_m3) for ln in lines),
+                   tuple(float(ln.length_m) for ln in lines), tuple(float(ln.bore_m) for ln in lines),
+                   air.viscosity_Pa_s)
+
+    def volumes(self, z_m: float) -> tuple[float, float]:
+        """Chamber plus line volumes (m^3) at piston position z (eqs 20-21)."""
+        return volumes(z_m, self.q)
+
+    def force_capacity_N(self) -> tuple[float, float]:
+        """(lowest, highest) actuator force (N): one chamber at supply, the other at atmosphere
+        (eq 17): -(P_s - P_atm) A_2 and (P_s - P_atm) A_1."""
+        dp = self.q[Q_PSUP] - self.q[Q_PATM]
+        return -dp * self.q[Q_A2], dp * self.q[Q_A1]
+
+    def gain_for_rate(self, rate_Hz: float, z_m: float | None = None) -> float:
+        """Observer gain k (m^6/s) that puts the correction's pole at ``rate_Hz`` at position z
+        (default mid-stroke): the correction's Jacobian in x has the single nonzero eigenvalue
+        -k (A_1 / (V_1^2 A_2) + A_2 / (V_2^2 A_1))."""
+        if not (math.isfinite(rate_Hz) and rate_Hz >= 0):
+            raise SensorError(f"observer rate_Hz = {rate_Hz!r}: must be a finite number >= 0")
+        z = self.q[Q_STROKE] / 2 if z_m is None else z_m
+        v1, v2 = self.volumes(z)
+        a1, a2 = self.q[Q_A1], self.q[Q_A2]
+        return 2 * math.pi * rate_Hz / (a1 / (v1 * v1 * a2) + a2 / (v2 * v2 * a1))
+
+
+@njit(cache=True)
+def volumes(z, q):
+    """(V_1, V_2) in m^3: chamber plus line volume at position z (eqs 16, 20-21)."""
+    return q[Q_V01] + q[Q_A1] * z, q[Q_V02] + q[Q_A2] * (q[Q_STROKE] - z)
+
+
+@njit(cache=True)
+def actuator_force(p1, p2, q):
+    """F_p = P_1 A_1 - P_2 A_2 - P_atm A_rod in N (eq 17)."""
+    return p1 * q[Q_A1] - p2 * q[Q_A2] - q[Q_PATM] * q[Q_AROD]
+
+
+@njit(cache=True)
+def measured_actuator_force(force_N, velocity_m_s, acceleration_m_s2, q):
+    """F_p = F_e + M z'' + B z' in N from the readings (eq 18, Coulomb friction neglected)."""
+    return force_N + q[Q_MASS] * acceleration_m_s2 + q[Q_VISC] * velocity_m_s
+
+
+@njit(cache=True)
+def correction(p1_hat, p2_hat, v1, v2, fp_measured, q):
+    """(f_1, f_2) of eqs 23-24 in Pa/m^3; they contain the force error F_hat_p - F_p."""
+    err = actuator_force(p1_hat, p2_hat, q) - fp_measured
+    return -err / (v1 * q[Q_A2]), err / (v2 * q[Q_A1])
+
+
+@njit(cache=True)
+def observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh):
+    """d(x_hat)/dt of eq 22 (W) and its Jacobian (1/s) as (d1, d2, j11, j12, j21, j22)."""
+    p1, p2 = x1 / v1, x2 / v2
+    m1, dm1 = port_flow(u, grid, csup, cexh, q[Q_BCRIT], q[Q_RLAM], q[Q_PSUP], p1, q[Q_PATM], q[Q_KREF])
+    m2, dm2 = port_flow(-u, grid, csup, cexh, q[Q_BCRIT], q[Q_RLAM], q[Q_PSUP], p2, q[Q_PATM], q[Q_KREF])
+    f1, f2 = correction(p1, p2, v1, v2, fp_measured, q)
+    rt, a1, a2 = q[Q_RT], q[Q_A1], q[Q_A2]
+    c12 = k / (v1 * v2)
+    return (m1 * rt + k * f1, m2 * rt + k * f2,
+            rt * dm1 / v1 - k * a1 / (v1 * v1 * a2), c12,
+            c12, rt * dm2 / v2 - k * a2 / (v2 * v2 * a1))
+
+
+@njit(cache=True)
+def observer_step(x1, x2, u, z, fp_measured, k, h, q, grid, csup, cexh):
+    """One linearly implicit Euler step of h seconds; returns the new (x_hat_1, x_hat_2)."""
+    v1, v2 = volumes(z, q)
+    d1, d2, j11, j12, j21, j22 = observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh)
+    a, b, c, d = 1.0 - h * j11, -h * j12, -h * j21, 1.0 - h * j22
+    det = a * d - b * c
+    return x1 + h * (d * d1 - b * d2) / det, x2 + h * (a * d2 - c * d1) / det
+
+
+class PressureObserver:
+    """Chamber-pressure estimator of one of :data:`OBSERVER_KINDS`, updated once per sample.
+
+    ``gain_m6_s``: k of eq 22 for kind ``force`` (ignored otherwise); ``initial_Pa``: the
+    starting estimates (the thesis starts from zero); ``gain_on_s``: time at which the
+    correction is switched on (before it the observer runs as the standard model, Figure 27).
+    """
+
+    def __init__(self, model: ObserverModel, kind: str = "force", gain_m6_s: float = 0.0,
+                 dt_s: float = 1e-3, initial_Pa: tuple[float, float] = (0.0, 0.0), gain_on_s: float = 0.0):
+        if kind not in OBSERVER_KINDS:
+            raise SensorError(f"observer = {kind!r}: must be one of {', '.join(OBSERVER_KINDS)}")
+        if not (math.isfinite(gain_m6_s) and gain_m6_s >= 0):
+            raise SensorError(f"observer gain k = {gain_m6_s!r} m^6/s: must be a finite number >= 0 "
+                              "(k < 0 makes eq 34 positive and the observer unstable)")
+        if not (math.isfinite(dt_s) and dt_s > 0):
+            raise SensorError(f"observer dt_s = {dt_s!r}: must be a positive finite number")
+        self.model, self.kind, self.dt = model, kind, float(dt_s)
+        self.k = float(gain_m6_s) if kind == "force" else 0.0
+        self.gain_on_s = float(gain_on_s)
+        self._p0 = tuple(float(p) for p in initial_Pa)
+        self._x: tuple[float, float] | None = None
+        self.pressures = self._p0
+        self.fp_measured = 0.0
+
+    def update(self, t: float, m: dict, u_prev: float) -> tuple[float, float]:
+        """Advance to the sample at t with the previous command u_prev; returns (P_hat_1, P_hat_2)."""
+        q = self.model.q
+        z = m["position_m"]
+        self.fp_measured = measured_actuator_force(m["force_N"], m["velocity_m_s"], m["acceleration_m_s2"], q)
+        if self.kind == "valve":
+            self.pressures = (m["pressure_valve_1_Pa"], m["pressure_valve_2_Pa"])
+            return self.pressures
+        v1, v2 = volumes(z, q)
+        if self._x is None:
+            self._x = (self._p0[0] * v1, self._p0[1] * v2)
+        else:
+            k = self.k if t >= self.gain_on_s else 0.0
+            self._x = observer_step(self._x[0], self._x[1], u_prev, z, self.fp_measured, k, self.dt,
+                                    q, self.model.grid, self.model.supply_conductance,
+                                    self.model.exhaust_conductance)
+        p1, p2 = self._x[0] / v1, self._x[1] / v2
+        limit = 100.0 * q[Q_PSUP]
+        for i, p in enumerate((p1, p2)):
+            if not (math.isfinite(p) and abs(p) < limit):
+                raise SensorError(f"observer stopped at t = {t:.6g} s: estimated chamber pressure "
+                                  f"P_hat_{i + 1} = {p!r} Pa left its range (|P| < {limit:.3g} Pa)")
+        self.pressures = (p1, p2)
+        return self.pressures
