@@ -187,7 +187,6 @@ def reference_response(case: LineCase, air) -> Response:
 def first_resonance(response: Response, frequency_Hz) -> float | None:
     """Frequency (Hz) of the first peak of |H| on the grid standing PEAK_PROMINENCE of the largest
     |H| above its surroundings, refined by a bounded search between its neighbours; None if none."""
-    import numpy as np
     from scipy.optimize import minimize_scalar
     from scipy.signal import find_peaks
 
@@ -270,8 +269,8 @@ _COLOURS = {"dead-volume": "tab:orange", "richer-hurmuzlu": "tab:purple", "two-v
             "distributed": "tab:red"}
 
 
-def _title(case: LineCase) -> str:
-    return (f"L = {case.length_m:g} m, D = {case.bore_m * 1e3:g} mm, V = {case.volume_m3 * 1e6:g} cm$^3$, "
+def _title(case: LineCase, cm3: str = "cm$^3$") -> str:
+    return (f"L = {case.length_m:g} m, D = {case.bore_m * 1e3:g} mm, V = {case.volume_m3 * 1e6:g} {cm3}, "
             f"P = {case.pressure_Pa / 1e5:g} bar abs")
 
 
@@ -331,8 +330,6 @@ def plot_step(step: dict, case: LineCase, path: Path) -> None:
 
 
 def _series(response: Response, f) -> dict:
-    import numpy as np
-
     return {"frequency_hz": f.tolist(), "amplitude_ratio": response.amplitude(f).tolist(),
             "phase_deg": response.phase_deg(f).tolist()}
 
@@ -402,10 +399,11 @@ def run(args: argparse.Namespace) -> int:
         return 0
     ref = result["reference"]
     band = "0.8 f_res" if ref["first_resonance_hz"] is not None else "fmax"
-    print(f"line: {_title(case).replace('$^3$', '^3')}; frequencies "
+    print(f"line: {_title(case, 'cm^3')}; frequencies "
           f"{result['reference']['frequency_hz'][0]:.4g}-{case.fmax_Hz:.4g} Hz")
     print(f"\nfrequency response p_end / p_in  (amplitude error against Bergh-Tijdeman up to {band})")
-    print(f" {'model':16s} {'1st resonance (Hz)':>18s} {'vs B-T':>8s} {'peak |H|':>9s} {'max |H| error':>14s}")
+    print(f" {'model':16s} {'1st resonance (Hz)':>18s} {'vs B-T':>8s} {'peak |H|':>9s} "
+          f"{'max |H| error':>14s}")
     print(f" {'bergh-tijdeman':16s} {_fmt(ref['first_resonance_hz'], 18, '.3f')} "
           f"{'':>8s} {ref['peak_amplitude_ratio']:9.3f}")
     for name, m in result["models"].items():
@@ -420,7 +418,8 @@ def run(args: argparse.Namespace) -> int:
     for name, m in step["models"].items():
         ms = [None if m[k] is None else 1e3 * m[k] for k in ("delay_10pct_s", "rise_10_90_s")]
         print(f" {name:16s} {m['reached_pct']:7.1f}% {_fmt(ms[0], 15, '.1f')} {_fmt(ms[1], 17, '.1f')} "
-              f"{m['overshoot_pct']:9.1f}% {m['ripple_pct']:6.1f}% {m['max_valve_chamber_gap_Pa'] / 1e3:28.1f}")
+              f"{m['overshoot_pct']:9.1f}% {m['ripple_pct']:6.1f}% "
+              f"{m['max_valve_chamber_gap_Pa'] / 1e3:28.1f}")
     rh = step["models"].get("richer-hurmuzlu")
     if rh is not None and rh["reached_pct"] < 90.0:
         print(f" note: richer-hurmuzlu attenuates the fully open valve flow "
