@@ -1,0 +1,360 @@
+"""Force controllers of chapters IV and V, each a callable ``controller(t, measurements) -> u``
+for :func:`sensor.pneumatic.simulate.simulate` (u in [-1, 1], SI readings).
+
+* :class:`PIForce` - direct PI force control, e = F_d - F_e (section 4.2.3, Figure 15a).
+* :class:`Impedance` - F_d = m_d z~'' + b_d z~' + k_d z~, z~ = z_d - z (eqs 41-42), e_c = F_d - F_e
+  (eq 43) fed to the PI law (Figure 15b).
+* :class:`SlidingMode` - s = e + lambda int e (eqs 45, 50), equivalent conductance from the
+  model with estimated pressures (eqs 47, 51, 53) plus eta sat(s / phi) (eq 48, sat of
+  DESIGN section 12), turned into a command by the inverse valve calibration.
+* :class:`LineModel` - the cascaded controller of section 5.3 (eqs 63-72): a two-volume line
+  model per side (eqs 54-58) driven by the valve-port pressures estimates the chamber pressure
+  and chamber flow; the outer loop asks for a valve force F_vd (eq 70), the inner loop makes
+  F_V = P_v1 A1 - P_v2 A2 (eq 67) track it (eq 72).
+
+Each controller owns a :class:`~sensor.pneumatic.observer.PressureObserver` it updates every
+sample (for SMC its pressures enter the law; for PI and impedance it runs alongside, decoupled,
+as in the thesis) and logs one row per sample in ``rows`` with the names in ``channels``.
+
+Unit corrections (DESIGN section 12 and this module): eqs 68 and 72 carry R T between mass flow
+and force rate; eqs 47, 51 and 69 write M z'' + B z' where the force *rate* needs M z''' + B z'';
+B z'' is kept, M z''' (jerk, not measured; M = 50 g) is dropped; h_bar of eq 65 carries the A/L
+of eq 63 so it is a rate (1/s); F_p = F_V - P_atm A_rod at rest (eq 17), so P_atm A_rod is added to F_vd (the "upward
+shift" of section 5.6).  Chamber 2's flow enters with a minus sign (both flows count into their
+chambers).
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from sensor.errors import SensorError
+from sensor.pneumatic._kernel import steady_coefficient
+from sensor.pneumatic.observer import (Q_A1, Q_A2, Q_AROD, Q_BCRIT, Q_KREF, Q_PATM, Q_PSUP, Q_RLAM, Q_RT,
+                                       Q_STROKE, Q_V01, Q_V02, Q_VISC, ObserverModel, PressureObserver,
+                                       volumes)
+from sensor.pneumatic.sensors import DifferentiatingFilter
+from sensor.pneumatic.valve import orifice_flow
+
+CONTROLLERS = ("pi", "impedance", "smc", "line-model")
+REFERENCE_KINDS = ("sine", "step", "square")
+
+
+# --- references -------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Reference:
+    """Desired force (N) over time: offset + amplitude * shape(t).
+
+    shape: sin(2 pi f t) (``sine``), sign(sin(2 pi f t)) (``square``), or 0 before
+    ``step_s`` and 1 after (``step``)."""
+
+    kind: str
+    frequency_Hz: float = 0.0
+    amplitude_N: float = 24.0
+    offset_N: float = 0.0
+    step_s: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.kind not in REFERENCE_KINDS:
+            raise SensorError(f"reference kind = {self.kind!r}: must be one of {', '.join(REFERENCE_KINDS)}")
+        if self.kind != "step" and not (math.isfinite(self.frequency_Hz) and self.frequency_Hz > 0):
+            raise SensorError(f"reference frequency = {self.frequency_Hz!r} Hz: must be a positive finite number")
+        for name in ("amplitude_N", "offset_N", "step_s"):
+            if not math.isfinite(getattr(self, name)):
+                raise SensorError(f"reference {name} = {getattr(self, name)!r}: must be finite")
+
+    def value(self, t: float) -> float:
+        if self.kind == "sine":
+            return self.offset_N + self.amplitude_N * math.sin(2 * math.pi * self.frequency_Hz * t)
+        if self.kind == "square":
+            return self.offset_N + self.amplitude_N * (1.0 if math.sin(2 * math.pi * self.frequency_Hz * t) >= 0 else -1.0)
+        return self.offset_N + (self.amplitude_N if t >= self.step_s else 0.0)
+
+    def rate(self, t: float) -> float:
+        """dF_d/dt in N/s (zero between the jumps of step and square)."""
+        if self.kind == "sine":
+            w = 2 * math.pi * self.frequency_Hz
+            return self.amplitude_N * w * math.cos(w * t)
+        return 0.0
+
+    def values(self, t: np.ndarray) -> np.ndarray:
+        return np.array([self.value(float(ti)) for ti in t])
+
+    @property
+    def peak_N(self) -> tuple[float, float]:
+        """(lowest, highest) value."""
+        lo = self.offset_N - (abs(self.amplitude_N) if self.kind != "step" else max(0.0, -self.amplitude_N))
+        hi = self.offset_N + (abs(self.amplitude_N) if self.kind != "step" else max(0.0, self.amplitude_N))
+        return lo, hi
+
+    @property
+    def label(self) -> str:
+        return "step" if self.kind == "step" else f"{self.kind}:{self.frequency_Hz:g}Hz"
+
+
+def parse_reference(text: str, amplitude_N: float = 24.0, offset_N: float = 0.0, step_s: float = 0.5) -> Reference:
+    """``sine:1Hz``, ``square:0.5Hz`` or ``step`` (see :class:`Reference`)."""
+    m = re.fullmatch(r"\s*(sine|square)\s*:\s*([0-9.eE+-]+)\s*(?:hz|Hz|HZ)?\s*", text)
+    if m:
+        try:
+            f = float(m.group(2))
+        except ValueError:
+            raise SensorError(f"reference = {text!r}: the frequency must be a number, e.g. sine:1Hz") from None
+        return Reference(m.group(1), f, amplitude_N, offset_N, step_s)
+    if text.strip() == "step":
+        return Reference("step", 0.0, amplitude_N, offset_N, step_s)
+    raise SensorError(f"reference = {text!r}: must be sine:<f>Hz, square:<f>Hz or step")
+
+
+# --- valve calibration inverse and flow functions ---------------------------------------------------
+
+def calibration_inverse(model: ObserverModel) -> tuple[np.ndarray, np.ndarray]:
+    """(conductance, command) table of port 1's supply orifice for u >= 0, monotone, starting at
+    the last command of the closed (or leakage) band so an overlap is stepped over."""
+    g, c = model.grid, model.supply_conductance
+    pos = g >= 0
+    gp, cp = g[pos], np.maximum.accumulate(c[pos])
+    i0 = int(np.flatnonzero(cp == cp[0])[-1])
+    keep = np.concatenate([[True], np.diff(cp[i0:]) > 0])
+    return cp[i0:][keep], gp[i0:][keep]
+
+
+@njit(cache=True)
+def command_for(conductance, cal_c, cal_u):
+    """Command u in [-1, 1] whose net conductance is the signed ``conductance`` (m^3/(s Pa))."""
+    u = np.interp(abs(conductance), cal_c, cal_u)
+    return u if conductance >= 0.0 else -u
+
+
+@njit(cache=True)
+def psi(pu, pd, q):
+    """Flow per unit conductance psi(P_u, P_d) (kg/(s m^3/(s Pa))) of eq 88."""
+    return orifice_flow(1.0, q[Q_BCRIT], q[Q_RLAM], pu, pd, q[Q_KREF])[0]
+
+
+@njit(cache=True)
+def sat(s, phi):
+    """sat(s / phi) of eq 52 as corrected (DESIGN section 12): s/phi inside |s| <= phi, sign(s) out."""
+    if abs(s) <= phi:
+        return s / phi
+    return 1.0 if s > 0 else -1.0
+
+
+@njit(cache=True)
+def smc_conductance(force_rate_N_s, p1, p2, z, v, q):
+    """Signed conductance that makes the actuator force rise at ``force_rate_N_s`` with chamber
+    pressures p1, p2 (eqs 47/51, 53): F_p' = C R T psi_T - A1 P1 V1'/V1 + A2 P2 V2'/V2."""
+    v1, v2 = volumes(z, q)
+    a1, a2 = q[Q_A1], q[Q_A2]
+    need = force_rate_N_s + a1 * p1 * (a1 * v) / v1 - a2 * p2 * (-a2 * v) / v2
+    if need >= 0.0:
+        den = psi(q[Q_PSUP], p1, q) * a1 / v1 + psi(p2, q[Q_PATM], q) * a2 / v2
+    else:
+        den = psi(p1, q[Q_PATM], q) * a1 / v1 + psi(q[Q_PSUP], p2, q) * a2 / v2
+    return need / (q[Q_RT] * max(den, 1e-300))
+
+
+@njit(cache=True)
+def line_model_step(pc, mc, pv, vnode, h, area, inertance, bore, mu, rt):
+    """One semi-implicit step of the two-volume line model of one side (eqs 54-58):
+    flow first (friction implicit), then the chamber node from the new flow.  vnode = (old,
+    new) node volume V_c + V_L/2.  Returns (P_c, m_c, f)."""
+    rho = (pv + pc) / (2.0 * rt)
+    f = steady_coefficient(mc, mu / rho, bore, 0, mu)
+    mc_new = (mc + h * inertance * (pv - pc)) / (1.0 + h * f)
+    pc_new = (pc * vnode[0] + h * mc_new * rt) / vnode[1]
+    return pc_new, mc_new, f
+
+
+# --- controllers ----------------------------------------------------------------------------------
+
+class _Loop:
+    """Common part: observer update, reference, anti-windup integral, logging."""
+
+    channels: tuple[str, ...] = ("desired_force_N", "estimated_pressure_1_Pa", "estimated_pressure_2_Pa",
+                                 "measured_actuator_force_N")
+
+    def __init__(self, model: ObserverModel, reference: Reference, observer: PressureObserver, dt_s: float):
+        self.model, self.reference, self.observer, self.dt = model, reference, observer, float(dt_s)
+        self.u = 0.0
+        self.integral = 0.0
+        self.rows: list[tuple[float, ...]] = []
+
+    def _integrate(self, e: float, u_unclipped: float) -> None:
+        """Integrate e unless the command is saturated and e would push it further (anti-windup)."""
+        if abs(u_unclipped) < 1.0 or (u_unclipped > 0) != (e > 0):
+            self.integral += e * self.dt
+
+    def desired(self, t: float, m: dict) -> tuple[float, float]:
+        """(F_d, dF_d/dt) in N and N/s."""
+        return self.reference.value(t), self.reference.rate(t)
+
+    def __call__(self, t: float, m: dict) -> float:
+        p1, p2 = self.observer.update(t, m, self.u)
+        fd, fd_rate = self.desired(t, m)
+        u, extra = self.law(t, m, fd, fd_rate, p1, p2)
+        self.rows.append((fd, p1, p2, self.observer.fp_measured) + extra)
+        self.u = min(1.0, max(-1.0, u))
+        return self.u
+
+
+class PIForce(_Loop):
+    """u = k_p e + k_i int e, e = F_d - F_e (gains in 1/N and 1/(N s))."""
+
+    def __init__(self, model, reference, observer, dt_s=1e-3, kp_per_N=0.005, ki_per_N_s=0.05):
+        super().__init__(model, reference, observer, dt_s)
+        _check_gains(kp_per_N=kp_per_N, ki_per_N_s=ki_per_N_s)
+        self.kp, self.ki = kp_per_N, ki_per_N_s
+
+    def law(self, t, m, fd, fd_rate, p1, p2):
+        e = fd - m["force_N"]
+        u = self.kp * e + self.ki * self.integral
+        self._integrate(e, u)
+        return u, ()
+
+
+class Impedance(PIForce):
+    """Desired force of a critically damped impedance about z_d (eqs 41-43) tracked by the PI law.
+
+    z_d = rest_m + F_ref(t) / k_d, so the reference's newtons are the spring force k_d z~ asked
+    for; z~' = -z', z~'' = -z'' between the jumps of z_d."""
+
+    def __init__(self, model, reference, observer, dt_s=1e-3, kp_per_N=0.005, ki_per_N_s=0.05,
+                 stiffness_N_m=2000.0, mass_kg=0.5, rest_m=None):
+        super().__init__(model, reference, observer, dt_s, kp_per_N, ki_per_N_s)
+        _check_gains(stiffness_N_m=stiffness_N_m, mass_kg=mass_kg)
+        self.kd, self.md = stiffness_N_m, mass_kg
+        self.bd = 2.0 * math.sqrt(stiffness_N_m * mass_kg)     # critical damping
+        self.rest = model.q[Q_STROKE] / 2 if rest_m is None else rest_m
+
+    def desired(self, t, m):
+        zd = self.rest + self.reference.value(t) / self.kd
+        fd = self.kd * (zd - m["position_m"]) - self.bd * m["velocity_m_s"] - self.md * m["acceleration_m_s2"]
+        return fd, self.reference.rate(t) - self.kd * m["velocity_m_s"] - self.bd * m["acceleration_m_s2"]
+
+
+class SlidingMode(_Loop):
+    """Sliding-mode force control with the observer's pressures (eqs 45-53).
+
+    s = e + lambda int e; the conductance sets F_e' = F_d' + lambda e + eta sat(s / phi), i.e.
+    s' = -eta sat(s / phi); lambda (1/s), eta (N/s), phi (N).  With ``impedance`` set (an
+    :class:`Impedance` for its desired force) it is the observer-based impedance controller of
+    section 4.3."""
+
+    def __init__(self, model, reference, observer, dt_s=1e-3, lam_per_s=2.0, eta_N_s=600.0, phi_N=20.0,
+                 impedance: Impedance | None = None):
+        super().__init__(model, reference, observer, dt_s)
+        _check_gains(lam_per_s=lam_per_s, eta_N_s=eta_N_s, phi_N=phi_N)
+        self.lam, self.eta, self.phi = lam_per_s, eta_N_s, phi_N
+        self.cal_c, self.cal_u = calibration_inverse(model)
+        self.impedance = impedance
+
+    def desired(self, t, m):
+        return self.impedance.desired(t, m) if self.impedance else super().desired(t, m)
+
+    def law(self, t, m, fd, fd_rate, p1, p2):
+        q = self.model.q
+        e = fd - m["force_N"]
+        s = e + self.lam * self.integral
+        rate = fd_rate + self.lam * e + self.eta * sat(s, self.phi) + q[Q_VISC] * m["acceleration_m_s2"]
+        c = smc_conductance(rate, p1, p2, m["position_m"], m["velocity_m_s"], q)
+        u = command_for(c, self.cal_c, self.cal_u)
+        self.integral += e * self.dt     # s is the sliding variable: no anti-windup on it
+        return u, (s,)
+
+    channels = _Loop.channels + ("sliding_variable_N",)
+
+
+class LineModel(_Loop):
+    """Cascaded line-model controller (eqs 63-72) with the unit corrections of the module doc.
+
+    Outer loop, eq 70 as written: F_vd = F_p + P_atm A_rod + (lambda e_1 + F_d' + G_1) / h_bar
+    + k_p1 e_1 + k_i1 w_1 (lambda 1/s, k_p1 dimensionless, k_i1 1/s), F_p from the line model's
+    chamber pressures; in the nominal model e_1' = -(lambda + h_bar k_p1) e_1 - h_bar k_i1 w_1.
+    Inner loop: the signed conductance making F_V' = F_vd' + k_p2 e_2 + k_i2 w_2 through eqs 56
+    and 67 (R T kept); in F_vd' the chamber-force rate comes from the line model (eq 55) and the
+    rest from a first-order filtered derivative (``derivative_cutoff_Hz``)."""
+
+    channels = _Loop.channels + ("virtual_input_desired_N", "virtual_input_N", "line_model_pressure_1_Pa",
+                                 "line_model_pressure_2_Pa", "h_bar_per_s")
+
+    def __init__(self, model, reference, observer, dt_s=1e-3, lam_per_s=10.0, kp1=0.3, ki1_per_s=1.0,
+                 kp2_per_s=60.0, ki2_per_s2=0.0, derivative_cutoff_Hz=20.0):
+        super().__init__(model, reference, observer, dt_s)
+        _check_gains(lam_per_s=lam_per_s, kp1=kp1, ki1_per_s=ki1_per_s, kp2_per_s=kp2_per_s, ki2_per_s2=ki2_per_s2)
+        self.lam, self.kp1, self.ki1, self.kp2, self.ki2 = lam_per_s, kp1, ki1_per_s, kp2_per_s, ki2_per_s2
+        self.cal_c, self.cal_u = calibration_inverse(model)
+        self.fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)
+        self.w2 = 0.0
+        self.state: list[float] | None = None      # [P_c1, m_c1, P_c2, m_c2]
+        self.z_prev = None
+        q = model.q
+        self.half = [vl / 2 for vl in model.line_volume_m3]
+        self.area = [math.pi * d * d / 4 for d in model.line_bore_m]
+        self.inertance = [a / ln for a, ln in zip(self.area, model.line_length_m)]
+        self.dead = [q[Q_V01] - model.line_volume_m3[0], q[Q_V02] - model.line_volume_m3[1]]
+
+    def _node_volumes(self, z):
+        q = self.model.q
+        return (self.dead[0] + q[Q_A1] * z + self.half[0], self.dead[1] + q[Q_A2] * (q[Q_STROKE] - z) + self.half[1])
+
+    def law(self, t, m, fd, fd_rate, p1, p2):
+        q = self.model.q
+        rt, a1, a2 = q[Q_RT], q[Q_A1], q[Q_A2]
+        z, v = m["position_m"], m["velocity_m_s"]
+        pv = (m["pressure_valve_1_Pa"], m["pressure_valve_2_Pa"])
+        vn = self._node_volumes(z)
+        fr = [0.0, 0.0]
+        if self.state is None:
+            self.state = [pv[0], 0.0, pv[1], 0.0]
+            for s in range(2):
+                rho = pv[s] / rt
+                fr[s] = steady_coefficient(0.0, self.model.viscosity_Pa_s / rho, self.model.line_bore_m[s], 0,
+                                           self.model.viscosity_Pa_s)
+        else:
+            vo = self._node_volumes(self.z_prev)
+            for s in range(2):
+                pc, mc, fr[s] = line_model_step(self.state[2 * s], self.state[2 * s + 1], pv[s], (vo[s], vn[s]),
+                                                self.dt, self.area[s], self.inertance[s], self.model.line_bore_m[s],
+                                                self.model.viscosity_Pa_s, rt)
+                if not (math.isfinite(pc) and 0.0 < pc < 1e8):
+                    raise SensorError(f"line-model controller stopped at t = {t:.6g} s: its chamber pressure "
+                                      f"estimate P_c{s + 1} = {pc!r} Pa left its range (0, 1e8) Pa")
+                self.state[2 * s], self.state[2 * s + 1] = pc, mc
+        self.z_prev = z
+        pc1, mc1, pc2, mc2 = self.state
+        # eqs 64-65 with the A/L of eq 63: h_bar (1/s)
+        inert = 0.5 * (self.inertance[0] + self.inertance[1])
+        hbar = inert * rt / (0.5 * (fr[0] + fr[1]) * 0.5 * (vn[0] + vn[1]))
+        # F_p of eq 70 from the line model's chamber pressures (section 5.3.1: "chamber pressures
+        # are obtained using the line model"), so F_p + P_atm A_rod = P_c1 A1 - P_c2 A2
+        g1 = q[Q_VISC] * m["acceleration_m_s2"] + a1 * pc1 * (a1 * v) / vn[0] - a2 * pc2 * (-a2 * v) / vn[1]
+        e1 = fd - m["force_N"]
+        shift = (fd_rate + self.lam * e1 + g1) / hbar + self.kp1 * e1 + self.ki1 * self.integral
+        fvd = pc1 * a1 - pc2 * a2 + shift
+        fv = pv[0] * a1 - pv[1] * a2
+        e2 = fvd - fv
+        # F_vd': the chamber-force part from the line model itself (eq 55, no lag), the rest filtered
+        chamber_rate = (a1 * (mc1 * rt - pc1 * a1 * v) / vn[0] - a2 * (mc2 * rt + pc2 * a2 * v) / vn[1])
+        fvd_rate = chamber_rate + self.fvd_rate.update(shift)
+        # eqs 56, 67, 72 with R T: F_V' = R T (A1 (m_v1 - m_c1) / Vh1 - A2 (m_v2 - m_c2) / Vh2)
+        target = (fvd_rate + self.kp2 * e2 + self.ki2 * self.w2) / rt + a1 * mc1 / self.half[0] - a2 * mc2 / self.half[1]
+        up = psi(q[Q_PSUP], pv[0], q) * a1 / self.half[0] + psi(pv[1], q[Q_PATM], q) * a2 / self.half[1]
+        down = psi(pv[0], q[Q_PATM], q) * a1 / self.half[0] + psi(q[Q_PSUP], pv[1], q) * a2 / self.half[1]
+        c = target / max(up if target >= 0 else down, 1e-300)
+        u = command_for(c, self.cal_c, self.cal_u)
+        self._integrate(e1, u)
+        if abs(u) < 1.0 or (u > 0) != (e2 > 0):
+            self.w2 += e2 * self.dt
+        return u, (fvd, fv, pc1, pc2, hbar)
+
+
+def _check_gains(**gains) -> None:
+    for name, value in gains.items():
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            raise SensorError(f"controller gain {name} = {value!r}: must be a finite number >= 0")
