@@ -85,7 +85,7 @@ class Design:
     width_mm: float = 25.0
     height_mm: float = 30.0
     sheet_thickness_mm: float = 5.1
-    hinge_length_mm: float = 2.75
+    hinge_length_mm: float = 2.70
     link_width_mm: float = 2.0
     plate_thickness_mm: float = 1.5
     knee_width_mm: float = 2.5

@@ -77,10 +77,14 @@ def _unit(v) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def build_beam_model(design: Design, layout: Layout | None = None) -> BeamModel:
+def build_beam_model(design: Design, layout: Layout | None = None, input_guided: bool = True) -> BeamModel:
     """The beam model of a design, hinges numbered as in Figure 48 (see geometry.params).
 
-    Costs a few tens of microseconds: sweeps build thousands.
+    The base plate is clamped. With ``input_guided`` (the default) the input port is guided
+    sideways (its x is held), as the thesis' X-stage held it when it pushed the specimens
+    (section 6.2.4): without that guide a stiff amplifying body such as sample B can sway
+    sideways under its own 1 mm load (a bifurcation the solver reports). Costs a few tens of
+    microseconds: sweeps build thousands.
     """
     lay = layout or make_layout(design)
     d = design
@@ -95,8 +99,8 @@ def build_beam_model(design: Design, layout: Layout | None = None) -> BeamModel:
     base_l, base_r = node(lay.P0), node(lay.P0 * mirror)
     knee_lo_l, knee_hi_l = node(lay.P1), node(lay.P2)
     knee_lo_r, knee_hi_r = node(lay.P1 * mirror), node(lay.P2 * mirror)
+    inp = node(lay.input_point)  # first node of the top plate: the body's reference node
     top_l, top_r = node(lay.P3), node(lay.P3 * mirror)
-    inp = node(lay.input_point)
     anchor = {tuple(np.round(p, 12)): i for i, p in
               ((base_l, lay.P0), (base_r, lay.P0 * mirror), (knee_lo_l, lay.P1),
                (knee_hi_l, lay.P2), (knee_lo_r, lay.P1 * mirror), (knee_hi_r, lay.P2 * mirror),
@@ -140,7 +144,7 @@ def build_beam_model(design: Design, layout: Layout | None = None) -> BeamModel:
         depth_mm=np.full(m, d.sheet_thickness_mm),
         hinge_number=np.array(hinge, dtype=int),
         member_name=tuple(names),
-        supports=((base_l, DOF_NAMES), (base_r, DOF_NAMES)),
+        supports=((base_l, DOF_NAMES), (base_r, DOF_NAMES)) + (((inp, ("x", "rz")),) if input_guided else ()),
         input_node=inp,
         input_direction=np.array([0.0, -1.0]),
         output_node=out,

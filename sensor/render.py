@@ -18,9 +18,8 @@ layout (:func:`geometry.layout.make_parts`, the parts the CAD profile is the uni
   from body to hinge to link.
 
 The picture shows the field magnified by a displacement scale factor (stated in it):
-x = X + scale u(X). The strain energy density (mJ/mm^3) of a member is U / (L0 t b), with
-U = q^T K^-1 q / 2 from its end forces q = (N, M_a, M_b) and its stiffness K (eqs 80-82,
-:func:`sensor.solver.natural_stiffness`); rigid parts carry none.
+x = X + scale u(X). The strain energy density (mJ/mm^3) of a member is U / (L0 t b), with U
+the member's strain energy from the solver (eqs 80-82); rigid parts carry none.
 
 Lengths mm, forces N, energies mJ. VTK renders off-screen (EGL), no display needed.
 """
@@ -38,7 +37,7 @@ from geometry.layout import Part
 from geometry.params import Design
 from geometry.topology import BeamModel
 from sensor.errors import SensorError
-from sensor.solver import SolveResult, natural_stiffness, prepare
+from sensor.solver import SolveResult, prepare
 
 #: Distance (mm) within which a point counts as on a part, or a node as on a part's outline:
 #: the CAD tessellation reproduces the straight-edged profile to rounding (about 1e-12 mm).
@@ -216,15 +215,9 @@ def displacement_field(points: np.ndarray, parts: list[Part], motions: list[Part
 
 
 def member_strain_energy(model: BeamModel, result: SolveResult) -> np.ndarray:
-    """Strain energy (mJ) of every model member, U = q^T K^-1 q / 2; zero for rigid ones."""
-    idx = result.member_index
-    a, b = model.member_nodes[idx, 0], model.member_nodes[idx, 1]
-    L0 = np.linalg.norm(model.nodes[b] - model.nodes[a], axis=1)
-    G = model.E_MPa / (2 * (1 + model.nu))
-    K = natural_stiffness(L0, model.thickness_mm[idx], model.depth_mm[idx], model.E_MPa, G)
-    q = result.member_forces
+    """Strain energy (mJ) of every model member, as the solver computed it; zero if rigid."""
     U = np.zeros(len(model.member_kind))
-    U[idx] = 0.5 * np.einsum("ei,ei->e", q, np.linalg.solve(K, q[..., None])[..., 0])
+    U[result.member_index] = result.member_strain_energy_mJ
     return U
 
 

@@ -493,10 +493,12 @@ def cross_axis(design: Design, imposed_travel_mm: float) -> CrossAxis:
     """
     _require(_real(imposed_travel_mm) and imposed_travel_mm > 0, "imposed_travel_mm",
              imposed_travel_mm, "a finite number > 0 (mm)")
-    model = build_beam_model(design)
-    mirror, axis = model.output_node, np.asarray(model.output_direction, dtype=float)
+    guided = build_beam_model(design)                     # axial: the stage guides the input
+    free = build_beam_model(design, input_guided=False)   # lateral: the stage drives it sideways
+    mirror, axis = guided.output_node, np.asarray(guided.output_direction, dtype=float)
 
     def drive(direction):
+        model = guided if direction[0] == 0 else free
         driven = dataclasses.replace(model, input_direction=np.array(direction, dtype=float),
                                      output_node=model.input_node,
                                      output_direction=np.array(direction, dtype=float))
@@ -508,7 +510,7 @@ def cross_axis(design: Design, imposed_travel_mm: float) -> CrossAxis:
         travel = float((r.deformed_nodes[mirror] - model.nodes[mirror]) @ axis)
         return travel, r.input_force_N, float(np.degrees(r.node_rotation_rad[mirror]))
 
-    axial, f_ax, _ = drive(tuple(model.input_direction))
+    axial, f_ax, _ = drive(tuple(guided.input_direction))
     plus, f_lat, tilt = drive((1.0, 0.0))
     minus, _, _ = drive((-1.0, 0.0))
     return CrossAxis(float(imposed_travel_mm), axial, (plus, minus),

@@ -29,18 +29,25 @@ def _cells(ds, hinges, phi2_min=0.0):
 # --- the thesis' findings ---------------------------------------------------------------------
 
 @pytest.mark.parametrize("hinges", ["05-03", "03-03"])
-def test_amplification_rises_as_phi2_falls_above_the_toggle_band(trend, hinges):
-    """Every phi1 row, for phi2 >= 12 deg: A strictly increases as phi2 decreases."""
-    s, f = _cells(trend, hinges, 12.0)
+def test_amplification_rises_as_phi2_falls_down_to_the_toggle_band(trend, hinges):
+    """Every phi1 row: A strictly increases as phi2 decreases, down to one peak; the peak
+    lies in the small-phi2 band (<= 20 deg; measured 6.6-17 deg, higher at small phi1)
+    where the middle link nearly flattens during the 1 mm travel."""
+    s, f = _cells(trend, hinges)
+    phi2 = s["phi2_deg"].values
     for i in range(f.shape[0]):
-        a = s["ratio_amplification"].values[i, f[i]]
-        assert np.all(np.diff(a) < 0), f"row phi1 = {float(s.phi1_deg[i])}"
+        a = np.where(f[i], s["ratio_amplification"].values[i], np.nan)
+        j = int(np.nanargmax(a))
+        above = a[j:][np.isfinite(a[j:])]
+        assert np.all(np.diff(above) < 0), f"row phi1 = {float(s.phi1_deg[i])}"
+        assert phi2[j] <= 20.0
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "toggle band: for phi2 below about 10 deg the middle link's rise (span tan phi2) is smaller "
-    "than the 1 mm output travel, the link passes horizontal, the hinges stretch instead of "
-    "turning, and the secant amplification falls again (Figure 49 panels, bottom edge)"))
+    "toggle band: for small phi2 the middle link nearly flattens during the 1 mm output "
+    "travel (its rise span tan phi2 is comparable with the travel), the hinges stretch "
+    "instead of turning and the secant amplification falls again below the peak; at "
+    "phi2 <= 6.6 deg the equilibrium is unstable and the cells are marked infeasible"))
 def test_amplification_rises_as_phi2_falls_over_the_whole_range(trend):
     s, f = _cells(trend, "05-03")
     for i in range(f.shape[0]):

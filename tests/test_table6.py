@@ -23,6 +23,9 @@ def test_default_hinge_length_is_the_basis_calibration():
 
 
 KNOWN_MISSES = {
+    ("sample-b", "amplification"): "at 1 mm the middle links flatten (phi2 falls) and the secant "
+                                   "amplification rises to 5.22, 27 % above the thesis' 4.11 (the "
+                                   "solver agrees with an independent frame model within 0.1 %)",
     ("sample-a", "sensitivity"): "model sample A is 26 % more compliant than the thesis' model",
     ("sample-a", "strain_energy"): "SE = 1 / (2 A sensitivity): A (+14 %) and sensitivity (+26 %) "
                                    "both high give SE 29 % low",
