@@ -15,7 +15,7 @@ from sensor.errors import SensorError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.air import AIR, Air
 from sensor.pneumatic.cylinder import Cylinder, Environment, FixedChambers
-from sensor.pneumatic.lines import Distributed
+from sensor.pneumatic.lines import Distributed, RicherHurmuzlu
 from sensor.pneumatic.unsteady import fitted_kernels
 from sensor.pneumatic.valve import FESTO_MPYE, Valve
 
@@ -217,6 +217,12 @@ class CompiledPlant:
         imposed; the state matrix is diagonalised once.  Requires FixedChambers."""
         if not isinstance(self.plant.actuator, FixedChambers):
             raise SensorError("linear_line_model needs FixedChambers as the actuator")
+        line = (self.plant.line_1, self.plant.line_2)[side]
+        if isinstance(line, RicherHurmuzlu):
+            # its delay and attenuation act on the valve flow, outside the state equations: a
+            # linearisation of the right-hand side would wrongly return 1
+            raise SensorError("linear_line_model: a RicherHurmuzlu line has no state-space "
+                              "linearisation (delay and attenuation); use its analytic response")
         nn = self.node_count(side)
         if nn < 2:
             return ModalResponse(np.zeros(0, complex), np.zeros(0, complex), 1.0)
