@@ -34,7 +34,7 @@ from numba import njit
 
 from sensor.errors import SensorError
 from sensor.pneumatic._kernel import steady_coefficient
-from sensor.pneumatic.observer import (Q_A1, Q_A2, Q_AROD, Q_BCRIT, Q_KREF, Q_PATM, Q_PSUP, Q_RLAM, Q_RT,
+from sensor.pneumatic.observer import (Q_A1, Q_A2, Q_BCRIT, Q_KREF, Q_PATM, Q_PSUP, Q_RLAM, Q_RT,
                                        Q_STROKE, Q_V01, Q_V02, Q_VISC, ObserverModel, PressureObserver,
                                        volumes)
 from sensor.pneumatic.sensors import DifferentiatingFilter
