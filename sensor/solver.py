@@ -128,7 +128,6 @@ class Topology:
     scatter_f: sp.csr_matrix      # (n_dof, e*6)
     input_node: int
     output_node: int
-    dof_weight: np.ndarray        # (n_dof,) 1 for forces, 1 / size for moments (residual norm)
     free_body_dof: tuple          # (body, k) index arrays of the free dofs, in dof order
 
 
@@ -152,7 +151,22 @@ def _bodies(model: BeamModel) -> tuple[np.ndarray, np.ndarray]:
 
 
 def prepare(model: BeamModel) -> Topology:
-    """Rigid bodies, dof numbering and scatter maps of a model's connectivity."""
+    """Rigid bodies, dof numbering and scatter maps of a model's connectivity (cached: a
+    sweep's designs share a handful of connectivities)."""
+    key = (len(model.nodes), model.member_nodes.tobytes(), model.member_kind, model.supports,
+           model.input_node, model.output_node)
+    topo = _TOPOLOGIES.get(key)
+    if topo is None:
+        if len(_TOPOLOGIES) > 64:
+            _TOPOLOGIES.clear()
+        topo = _TOPOLOGIES[key] = _prepare(model)
+    return topo
+
+
+_TOPOLOGIES: dict = {}
+
+
+def _prepare(model: BeamModel) -> Topology:
     body, masters = _bodies(model)
     nb = len(masters)
     fixed = np.zeros((nb, 3), dtype=bool)
@@ -186,14 +200,11 @@ def prepare(model: BeamModel) -> Topology:
     keep_f = elem_dofs >= 0
     scatter_f = sp.csr_matrix((np.ones(keep_f.sum()), (elem_dofs[keep_f], np.arange(e * 6).reshape(e, 6)[keep_f])),
                               shape=(n_dof, e * 6))
-    size = float(np.ptp(model.nodes, axis=0).max()) or 1.0
-    weight = np.where(np.arange(n_dof) == -1, 0.0, 1.0)
-    weight[dof_of_body[:, 2][dof_of_body[:, 2] >= 0]] = 1.0 / size
     fb, fk = np.nonzero(dof_of_body >= 0)
     order = np.argsort(dof_of_body[fb, fk])
     return Topology(len(model.nodes), body, masters, ~fixed.all(1), dof_of_body, n_dof, flex,
                     ea, eb, elem_dofs, scatter_K, scatter_f, model.input_node, model.output_node,
-                    weight, (fb[order], fk[order]))
+                    (fb[order], fk[order]))
 
 
 # --- the state of a batch ----------------------------------------------------------------
@@ -215,6 +226,7 @@ class _Batch:
     f_in: np.ndarray     # (B, 2) unit input force direction
     d_out: np.ndarray    # (B, 2) output travel direction
     d_in: np.ndarray     # (B, 2)
+    dof_weight: np.ndarray  # (B, n_dof) 1 on forces, 1 / model size on moments (residual norm)
 
 
 def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
@@ -230,7 +242,11 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
     Kn = natural_stiffness(L0, t, b, E, G)
     f_in = np.stack([m.input_direction for m in models])
     d_out = np.stack([m.output_direction for m in models])
-    return _Batch(X, r0, d, L0, beta0, Kn, f_in, d_out, f_in)
+    size = np.ptp(X, axis=1).max(axis=1)              # (B,) largest extent, mm
+    weight = np.ones((len(models), topo.n_dof))
+    rot = topo.dof_of_body[:, 2][topo.dof_of_body[:, 2] >= 0]
+    weight[:, rot] = 1.0 / size[:, None]
+    return _Batch(X, r0, d, L0, beta0, Kn, f_in, d_out, f_in, weight)
 
 
 def _node_state(topo: Topology, bt: _Batch, q: np.ndarray):
@@ -271,15 +287,19 @@ def _elements(topo: Topology, bt: _Batch, node_state):
     qf = qe.copy()                                      # forces conjugate to defo: N, M_a, M_b
     qf[..., 1] += qe[..., 0] * b1
     qf[..., 2] += qe[..., 0] * b2
-    J = np.zeros(c.shape + (3, 3))
-    J[..., 0, 0] = J[..., 1, 1] = J[..., 2, 2] = 1.0
-    J[..., 0, 1], J[..., 0, 2] = b1, b2
-    K_loc = np.swapaxes(J, -1, -2) @ bt.Kn @ J
+    # K_loc = J^T Kn J + N d2(bow)/d(theta)2 with J = I + e0 (0, b1, b2); Kn has no
+    # axial-bending coupling, so this is Kn plus rank-one updates, written out
+    ka = bt.Kn[..., 0, 0]
     nb = qe[..., 0] * c30
-    K_loc[..., 1, 1] += 4 * nb
-    K_loc[..., 2, 2] += 4 * nb
-    K_loc[..., 1, 2] -= nb
-    K_loc[..., 2, 1] -= nb
+    K_loc = bt.Kn.copy()
+    K_loc[..., 0, 1] += ka * b1
+    K_loc[..., 0, 2] += ka * b2
+    K_loc[..., 1, 0] = K_loc[..., 0, 1]
+    K_loc[..., 2, 0] = K_loc[..., 0, 2]
+    K_loc[..., 1, 1] += ka * b1 * b1 + 4 * nb
+    K_loc[..., 2, 2] += ka * b2 * b2 + 4 * nb
+    K_loc[..., 1, 2] += ka * b1 * b2 - nb
+    K_loc[..., 2, 1] = K_loc[..., 1, 2]
     # r = d(stretch)/dx, z = Ln d(chord angle)/dx, in node dofs (xa, ya, ta, xb, yb, tb)
     r = np.zeros(c.shape + (6,))
     r[..., 0], r[..., 1], r[..., 3], r[..., 4] = -c, -s, c, s
@@ -555,7 +575,7 @@ class _Run:
         nd = topo.n_dof
         res = prev_res = np.full(self.B, np.inf)
         for _ in range(o.max_iterations):
-            w = topo.dof_weight
+            w = self.bt.dof_weight
             if self.disp:
                 r, K, g_in, u_out, g_out = self.residual(q, lam)
                 scale = np.maximum(np.abs(lam), lam_scale * 1e-3) * np.linalg.norm(g_in * w, axis=1)
