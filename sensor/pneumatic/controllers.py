@@ -225,7 +225,7 @@ class Impedance(PIForce):
     for; z~' = -z', z~'' = -z'' between the jumps of z_d."""
 
     def __init__(self, model, reference, observer, dt_s=1e-3, kp_per_N=0.005, ki_per_N_s=0.05,
-                 stiffness_N_m=2000.0, mass_kg=0.5, rest_m=None):
+                 stiffness_N_m=2000.0, mass_kg=0.05, rest_m=None):
         super().__init__(model, reference, observer, dt_s, kp_per_N, ki_per_N_s)
         _check_gains(stiffness_N_m=stiffness_N_m, mass_kg=mass_kg)
         self.kd, self.md = stiffness_N_m, mass_kg
