@@ -167,6 +167,9 @@ def metrics(ds: xr.Dataset, reference: Reference) -> dict:
     """Force-control MSE (N^2) and eq 44 pressure-estimation MSE, 1/2 mean(P~1^2 + P~2^2) in
     kPa^2, over the steady window; MSE_2 (virtual input) for the line-model controller."""
     w = ds.sel(time=window(ds, reference))
+    if w.sizes["time"] < 2:
+        raise SensorError(f"duration {float(ds.time[-1]):.4g} s: too short for the MSE window "
+                          f"(a step at {reference.step_s:g} s needs a longer run)")
     w = w.isel(time=slice(0, -1)) if np.isnan(w.desired_force_N.values[-1]) else w
     e = w.desired_force_N - w.environment_force
     pt = np.stack([w.estimated_pressure_1_Pa - w.pressure_chamber.sel(side=1),

@@ -1,0 +1,54 @@
+"""Benchmark: cost of one observer + controller step, and the chapter V study.
+
+step_us: mean wall time of one call of the controller callable (observer update, eqs 19-24, and
+the control law) over 20 000 synthetic samples, for the SMC (observer pressures in the law) and
+the line-model controller (line-model update and cascaded law); the larger is reported.
+chapter5_study_s: the whole 4 lengths x 4 references x 2 controllers grid of
+:func:`sensor.pneumatic.experiments.controller_study` (6 s each, 20-segment distributed lines).
+One core.  Prints one JSON object.
+"""
+import json
+import math
+import os
+import time
+
+from sensor.pneumatic.experiments import Setup, build_plant, controller_study, make_controller
+from sensor.pneumatic.observer import ObserverModel
+
+
+def step_cost(controller: str, n: int = 20000) -> float:
+    setup = Setup(controller=controller, observer="force", valve="enfield-lh05")
+    model = ObserverModel.from_plant(build_plant(setup))
+    ctrl = make_controller(setup, model, 1e-3)
+    samples = []
+    for k in range(n):
+        t = k * 1e-3
+        s = math.sin(2 * math.pi * t)
+        samples.append((t, {"position_m": 0.025 + 0.002 * s, "velocity_m_s": 0.0126 * math.cos(2 * math.pi * t),
+                            "acceleration_m_s2": -0.08 * s, "force_N": 10 * s,
+                            "pressure_valve_1_Pa": 3e5 + 5e4 * s, "pressure_valve_2_Pa": 3e5 - 5e4 * s,
+                            "pressure_chamber_1_Pa": 3e5, "pressure_chamber_2_Pa": 3e5}))
+    for t, m in samples[:200]:     # JIT warm-up
+        ctrl(t, m)
+    start = time.perf_counter()
+    for t, m in samples:
+        ctrl(t, m)
+    return (time.perf_counter() - start) / n * 1e6
+
+
+def main() -> None:
+    if hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    costs = {c: step_cost(c) for c in ("pi", "smc", "line-model")}
+    controller_study(duration_s=1.0, lengths=(2.0,), references=("step",))   # warm-up
+    start = time.perf_counter()
+    res = controller_study()
+    study = time.perf_counter() - start
+    print(json.dumps({"benchmark": "pneumatic_loop", "step_us": round(max(costs.values()), 2),
+                      "step_us_by_controller": {k: round(v, 2) for k, v in costs.items()},
+                      "chapter5_study_s": round(study, 2), "chapter5_runs": len(res["rows"]),
+                      "limits": {"step_us": 50, "chapter5_study_s": 120}}))
+
+
+if __name__ == "__main__":
+    main()
