@@ -379,11 +379,9 @@ def _execute(spec: SweepSpec, todo, workers: int, scheduler: str | None):
 
 def _single_thread_blas():
     """Worker processes share the cores already: keep BLAS to one thread each."""
-    try:
-        from threadpoolctl import threadpool_limits
-        threadpool_limits(1)
-    except ImportError:
-        pass
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
 
 
 def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0):
