@@ -7,7 +7,7 @@ The same numbers come from:    dacm snr ../shared/data/mri/siemens_aera_pair/tra
 import sys
 from pathlib import Path
 
-from geometry.atomic import atomic_path
+from geometry.atomic import save_figure
 from mri.figure import PairPanel, pair_figure
 from mri.io import load_image
 from mri.pair import check_pair
@@ -33,6 +33,5 @@ print(f"difference sum|a-b| / sum a = {result.difference_percent:.3f} %")
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("mri_snr.png")
 rois = resolve_roi(parse_roi("nema5"), a.pixels[0].astype(float), a.pixel_spacing_mm)
 figure = pair_figure([PairPanel("Siemens Aera pair", a.pixels[0], b.pixels[0], rois, result.difference_percent)])
-with atomic_path(out) as tmp:
-    figure.savefig(tmp, dpi=110, format="png")
+save_figure(figure, out)
 print(f"figure: {out}")

@@ -20,7 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from geometry.atomic import atomic_path  # noqa: E402
+from geometry.atomic import save_figure  # noqa: E402
 from sensor.noise import gap_resolution_mm, noise_rms_V  # noqa: E402
 from sensor.optics import (MODELS, OpticsSetup, linearity, output_voltage,  # noqa: E402
                            working_range)
@@ -73,8 +73,7 @@ def main() -> int:
               yscale="log", title="How linear are the thesis intervals?")
     ax_na.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(args.out) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
+    save_figure(fig, args.out, dpi=120)
     print(f"wrote {args.out}")
     return 0
 

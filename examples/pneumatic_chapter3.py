@@ -17,7 +17,7 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from geometry.atomic import atomic_path  # noqa: E402
+from geometry.atomic import save_figure  # noqa: E402
 from sensor.pneumatic.air import AIR  # noqa: E402
 from sensor.pneumatic.cylinder import FixedChambers  # noqa: E402
 from sensor.pneumatic.lines import (DeadVolume, Distributed, RicherHurmuzlu, TwoVolume,  # noqa: E402
@@ -194,8 +194,7 @@ def plot_grid(runs, out_dir: Path) -> None:
     axes[0, 2].legend(fontsize=7)
     fig.tight_layout()
     target = out_dir / "chapter3_fixed_volume.png"
-    with atomic_path(target) as tmp:
-        fig.savefig(tmp, dpi=100)
+    save_figure(fig, target, dpi=100)
     print(f"\nwrote {target}")
 
 

@@ -16,7 +16,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from geometry.atomic import atomic_path  # noqa: E402
+from geometry.atomic import save_figure  # noqa: E402
 from geometry.params import MATERIALS, preset  # noqa: E402
 from sensor.hysteresis import TABLE6  # noqa: E402
 from sensor.sensor_model import build_sensor, cross_axis, datasheet, loading_cycle  # noqa: E402
@@ -61,8 +61,7 @@ def main() -> int:
               f"-x {c.lateral_mirror_travel_mm[1] * 1e3:.1f} um, lateral force "
               f"{c.lateral_force_N:.3f} N); thesis 1.66 % delrin, 3.29 % ABS")
     fig.tight_layout()
-    with atomic_path(args.out) as tmp:
-        fig.savefig(tmp, dpi=80, format="png")
+    save_figure(fig, args.out, dpi=80)
     print(f"wrote {args.out}")
     return 0
 

@@ -36,3 +36,18 @@ def atomic_path(path: str | os.PathLike):
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+
+
+def save_figure(fig, path: str | os.PathLike, dpi: int = 110, close: bool = True,
+                **savefig_kwargs) -> Path:
+    """Write a matplotlib figure atomically (format from the suffix); close it unless told."""
+    import matplotlib.pyplot as plt
+
+    target = Path(path)
+    try:
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, format=target.suffix.lstrip(".") or "png", dpi=dpi, **savefig_kwargs)
+    finally:
+        if close:
+            plt.close(fig)
+    return target

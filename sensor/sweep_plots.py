@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import xarray as xr  # noqa: E402
 
-from geometry.atomic import atomic_path  # noqa: E402
+from geometry.atomic import save_figure  # noqa: E402
 
 #: Thesis specimens marked on every panel (Table 5).
 SAMPLES = {"A": (21.0, 34.0), "B": (22.0, 17.2)}
@@ -29,14 +29,9 @@ LABELS = {**PANELS, "robust_quality_ratio": "robust quality (10th percentile) / 
 
 
 def _save(fig, path: Path, formats=("png", "svg")) -> list[Path]:
-    written = []
-    for fmt in formats:
-        p = path.with_suffix(f".{fmt}")
-        with atomic_path(p) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=130, bbox_inches="tight")
-        written.append(p)
-    plt.close(fig)
-    return written
+    """Write one figure in several formats (atomically) and close it."""
+    return [save_figure(fig, path.with_suffix(f".{fmt}"), dpi=130, close=(fmt == formats[-1]),
+                        bbox_inches="tight") for fmt in formats]
 
 
 def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geometry.atomic import atomic_path
+from geometry.atomic import save_figure
 from geometry.checks import assert_feasible
 from geometry.errors import ParameterError
 from geometry.layout import kinematic_amplification, make_layout, make_parts
@@ -158,9 +158,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         plot_profile(design, ax)
         fig.tight_layout()
-        with atomic_path(args.out) as tmp:
-            fig.savefig(tmp, format=fmt, dpi=args.dpi)
-    finally:
+    except Exception:
         plt.close(fig)
+        raise
+    save_figure(fig, args.out, dpi=args.dpi)
     print(f"wrote {args.out}")
     return 0

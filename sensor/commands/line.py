@@ -280,7 +280,7 @@ def plot_frequency(result: dict, case: LineCase, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from geometry.atomic import atomic_path
+    from geometry.atomic import save_figure
 
     fig, (ax_a, ax_p) = plt.subplots(2, 1, figsize=(6.4, 5.6), sharex=True)
     ref = result["reference"]
@@ -298,9 +298,7 @@ def plot_frequency(result: dict, case: LineCase, path: Path) -> None:
     for ax in (ax_a, ax_p):
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, format="png")
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
 
 
 def plot_step(step: dict, case: LineCase, path: Path) -> None:
@@ -309,7 +307,7 @@ def plot_step(step: dict, case: LineCase, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from geometry.atomic import atomic_path
+    from geometry.atomic import save_figure
 
     fig, (ax_c, ax_v) = plt.subplots(2, 1, figsize=(6.4, 5.6), sharex=True)
     t = step["time_s"]
@@ -324,9 +322,7 @@ def plot_step(step: dict, case: LineCase, path: Path) -> None:
     ax_v.set(xlabel="time (s)", ylabel="valve port P (bar abs)")
     ax_c.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, format="png")
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)
 
 
 def _series(response: Response, f) -> dict:

@@ -55,7 +55,7 @@ def _plot_intensity(sensor, ds, tolerance_pct: float, path: Path) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from geometry.atomic import atomic_path
+    from geometry.atomic import save_figure
     from sensor.optics import linearity, output_voltage, working_range
 
     model = sensor.readout.model
@@ -77,9 +77,7 @@ def _plot_intensity(sensor, ds, tolerance_pct: float, path: Path) -> None:
            title=f"{sensor.name}: intensity vs gap (cf. thesis Figure 62)")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 def _plot_calibration(sensor, ds, path: Path) -> None:
@@ -89,7 +87,7 @@ def _plot_calibration(sensor, ds, path: Path) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from geometry.atomic import atomic_path
+    from geometry.atomic import save_figure
     from sensor.sensor_model import loading_cycle
 
     cal = sensor.calibration
@@ -116,9 +114,7 @@ def _plot_calibration(sensor, ds, path: Path) -> None:
                title=f"reading error ({cal.method} calibration, {ds.adc_bits}-bit ADC)")
     ax_err.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -15,7 +15,7 @@ import json
 import sys
 from pathlib import Path
 
-from geometry.atomic import atomic_path
+from geometry.atomic import atomic_path, save_figure
 from mri.errors import MriError, RoiError
 from mri.figure import PairPanel, pair_figure
 from mri.image import MriImage
@@ -146,8 +146,7 @@ def _figure_panels(pairs: list[tuple[str, MriImage, MriImage, dict]], k: int | N
 
 def _write_figure(path: str, panels: list[PairPanel]) -> None:
     fig = pair_figure(panels)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+    save_figure(fig, path)
 
 
 def _write_csv(path: str, pairs: list[MeasuredPair]) -> None:
