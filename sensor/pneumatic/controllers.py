@@ -278,16 +278,23 @@ class LineModel(_Loop):
     chamber pressures; in the nominal model e_1' = -(lambda + h_bar k_p1) e_1 - h_bar k_i1 w_1.
     Inner loop: the signed conductance making F_V' = F_vd' + k_p2 e_2 + k_i2 w_2 through eqs 56
     and 67 (R T kept); in F_vd' the chamber-force rate comes from the line model (eq 55) and the
-    rest from a first-order filtered derivative (``derivative_cutoff_Hz``)."""
+    rest from a first-order filtered derivative (``derivative_cutoff_Hz``).
+
+    ``flow_rate_per_s`` (k_m, 1/s; 0 = eq 70 as written) adds the line inertia the thesis neglects
+    (5.3.1): F_vd += (k_m - f) (h_bar shift - phi) / w_L^2, phi the line model's chamber-flow force
+    rate, w_L^2 = (A/L) R T / V_bar.  Without it the flow coasts after F_V reaches F_vd and, where
+    w_L >> f (short lines), the outer loop oscillates even on the controller's own model."""
 
     channels = _Loop.channels + ("virtual_input_desired_N", "virtual_input_N", "line_model_pressure_1_Pa",
                                  "line_model_pressure_2_Pa", "h_bar_per_s")
 
     def __init__(self, model, reference, observer, dt_s=1e-3, lam_per_s=10.0, kp1=0.3, ki1_per_s=1.0,
-                 kp2_per_s=60.0, ki2_per_s2=0.0, derivative_cutoff_Hz=20.0):
+                 kp2_per_s=60.0, ki2_per_s2=0.0, derivative_cutoff_Hz=20.0, flow_rate_per_s=0.0):
         super().__init__(model, reference, observer, dt_s)
-        _check_gains(lam_per_s=lam_per_s, kp1=kp1, ki1_per_s=ki1_per_s, kp2_per_s=kp2_per_s, ki2_per_s2=ki2_per_s2)
+        _check_gains(lam_per_s=lam_per_s, kp1=kp1, ki1_per_s=ki1_per_s, kp2_per_s=kp2_per_s, ki2_per_s2=ki2_per_s2,
+                     flow_rate_per_s=flow_rate_per_s)
         self.lam, self.kp1, self.ki1, self.kp2, self.ki2 = lam_per_s, kp1, ki1_per_s, kp2_per_s, ki2_per_s2
+        self.km = flow_rate_per_s
         self.cal_c, self.cal_u = calibration_inverse(model)
         self.fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)
         self.w2 = 0.0
@@ -336,6 +343,14 @@ class LineModel(_Loop):
         g1 = q[Q_VISC] * m["acceleration_m_s2"] + a1 * pc1 * (a1 * v) / vn[0] - a2 * pc2 * (-a2 * v) / vn[1]
         e1 = fd - m["force_N"]
         shift = (fd_rate + self.lam * e1 + g1) / hbar + self.kp1 * e1 + self.ki1 * self.integral
+        if self.km > 0:
+            # line inertia (section 5.3.1 neglects dm_c/dt): the chamber-flow force rate
+            # phi = R T (A1 m_c1 / V1 - A2 m_c2 / V2) obeys phi' = w_L^2 (F_V - F_p) - f phi with
+            # w_L^2 = h_bar f; F_vd above asks for phi_d = h_bar * shift in steady flow; the extra
+            # term makes phi_d - phi decay at flow_rate_per_s instead of coasting at the friction rate f
+            phi = rt * (a1 * mc1 / vn[0] - a2 * mc2 / vn[1])
+            w2l = inert * rt / (0.5 * (vn[0] + vn[1]))
+            shift += (self.km - w2l / hbar) * (hbar * shift - phi) / w2l
         fvd = pc1 * a1 - pc2 * a2 + shift
         fv = pv[0] * a1 - pv[1] * a2
         e2 = fvd - fv
