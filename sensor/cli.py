@@ -32,13 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
-        try:
-            module = importlib.import_module(f"sensor.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"sensor.commands.{name}":
-                raise
-            continue  # command not built yet
-        module.register(sub)
+        importlib.import_module(f"sensor.commands.{name}").register(sub)
     return parser
 
 
