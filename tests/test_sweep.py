@@ -253,3 +253,24 @@ def test_cli_writes_dataset_csv_and_figures(tmp_path, capsys):
     assert "dacm" in ds.attrs["software"] and ds.attrs["target_output_mm"] == 1.0
     assert set(ds["hinges"].values) == {"05-03", "03-03"}
     ds.close()
+
+
+def test_config_file_sets_grid_design_and_monte_carlo(tmp_path, capsys):
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text('hinges = ["03-03"]\nphi1 = "18:22:2"\nphi2 = "20:30:2"\nmonte_carlo = 3\n'
+                   'hinge_sd_mm = 0.02\nseed = 5\n[design]\nhinge_length_mm = 2.0\n')
+    assert main(["sweep", "--config", str(cfg), "--out", str(tmp_path), "--quiet", "--no-plots"]) == 0
+    ds = load_dataset(tmp_path / "sweep.nc")
+    assert list(ds["hinges"].values) == ["03-03"]
+    assert list(ds["phi1_deg"].values) == [18.0, 22.0]
+    assert '"hinge_length_mm": 2.0' in ds.attrs["spec"] and '"seed": 5' in ds.attrs["spec"]
+    assert "mc_quality_mm_per_N_p10" in ds
+    # flags override the file
+    assert main(["sweep", "--config", str(cfg), "--phi1", "19:21:3", "--out", str(tmp_path / "b"),
+                 "--quiet", "--no-plots"]) == 0
+    assert load_dataset(tmp_path / "b" / "sweep.nc")["phi1_deg"].size == 3
+    cfg.write_text("phi1 = [\n")
+    assert main(["sweep", "--config", str(cfg), "--out", str(tmp_path), "--quiet"]) == 2
+    cfg.write_text('wingspan = 3\n')
+    assert main(["sweep", "--config", str(cfg), "--out", str(tmp_path), "--quiet"]) == 2
+    assert "wingspan" in capsys.readouterr().err
