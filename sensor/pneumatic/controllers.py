@@ -11,6 +11,8 @@ for :func:`sensor.pneumatic.simulate.simulate` (u in [-1, 1], SI readings).
   model per side (eqs 54-58) driven by the valve-port pressures estimates the chamber pressure
   and chamber flow; the outer loop asks for a valve force F_vd (eq 70), the inner loop makes
   F_V = P_v1 A1 - P_v2 A2 (eq 67) track it (eq 72).
+* :func:`smc_gains`, :func:`line_model_gains` - the gains of section 5.4.2, derived per line
+  length from the line's dynamics (:func:`line_dynamics`) instead of tuned by hand.
 
 Each controller owns a :class:`~sensor.pneumatic.observer.PressureObserver` it updates every
 sample (for SMC its pressures enter the law; for PI and impedance it runs alongside, decoupled,
@@ -169,6 +171,85 @@ def line_model_step(pc, mc, pv, vnode, h, area, inertance, bore, mu, rt):
     mc_new = (mc + h * inertance * (pv - pc)) / (1.0 + h * f)
     pc_new = (pc * vnode[0] + h * mc_new * rt) / vnode[1]
     return pc_new, mc_new, f
+
+
+# --- gains per line length (section 5.4.2) ----------------------------------------------------------
+
+SMC_SLOPE_FRACTION = 1.0 / 7.0   # eta/phi = w_L / 7
+SMC_PHI_N = 20.0                 # boundary-layer width (N), the reference amplitude's scale
+SMC_LAMBDA_PER_S = 2.0
+OUTER_RATE_FRACTION = 0.75       # lambda + h_bar k_p1 = 0.75 w_L
+OUTER_LAMBDA_PER_S = 10.0
+FLOW_DAMPING_RATIO = 1.0         # k_m = 2 zeta w_L
+INNER_SAMPLE_GAIN = 0.4          # k_p2 L / (2 c) at the longest design line
+INNER_DESIGN_LENGTH_M = 10.0     # the longest line of chapter V: one k_p2 for every line up to it
+
+
+@dataclass(frozen=True)
+class LineDynamics:
+    """Nominal two-volume line model of a plant (eqs 54-58, 63-65), mean of both sides, at
+    mid-stroke, zero flow and the mean pressure (P_s + P_atm) / 2.
+
+    natural_rad_s: w_L = sqrt((A/L) R T / V_bar), V_bar the chamber node volume V_c + V_L/2;
+    friction_per_s: laminar f = 32 nu / d^2 (eq 54); h_bar_per_s: w_L^2 / f (eq 65 with the A/L
+    of eq 63); speed_of_sound_m_s: c = sqrt(gamma R T); length_m: the longer line."""
+
+    natural_rad_s: float
+    friction_per_s: float
+    h_bar_per_s: float
+    speed_of_sound_m_s: float
+    length_m: float
+
+
+def line_dynamics(plant) -> LineDynamics:
+    """:class:`LineDynamics` of a :class:`~sensor.pneumatic.plant.Plant`."""
+    model = ObserverModel.from_plant(plant)
+    q = model.q
+    z = q[Q_STROKE] / 2
+    v1, v2 = model.volumes(z)
+    vbar = 0.5 * (v1 + v2) - 0.25 * sum(model.line_volume_m3)     # V_c + V_L / 2, mean of the sides
+    length = 0.5 * sum(model.line_length_m)
+    bore = 0.5 * sum(model.line_bore_m)
+    wl2 = math.pi * bore * bore / 4 / length * q[Q_RT] / vbar
+    rho = 0.5 * (q[Q_PSUP] + q[Q_PATM]) / q[Q_RT]
+    f = 32.0 * model.viscosity_Pa_s / rho / (bore * bore)
+    return LineDynamics(float(math.sqrt(wl2)), float(f), float(wl2 / f), plant.air.speed_of_sound, max(model.line_length_m))
+
+
+def smc_gains(plant) -> dict:
+    """SMC gains for the plant's lines: the boundary-layer slope eta/phi (the rate of s' =
+    -(eta/phi) s inside the layer, 1/s) is w_L/7, a margin below the lightly damped line mode the
+    standard model ignores; phi = 20 N, lambda = 2 /s.  Measured on the distributed 20-segment
+    plant, Enfield valve: w_L/4 and w_L/5 limit-cycle after a 24 N step at 7.25 and 10 m
+    (force-error lines of 1.5-2.4 N above 2.5 Hz), w_L/7 does not (below 0.05 N)."""
+    ld = line_dynamics(plant)
+    slope = SMC_SLOPE_FRACTION * ld.natural_rad_s
+    return {"lam_per_s": SMC_LAMBDA_PER_S, "eta_N_s": slope * SMC_PHI_N, "phi_N": SMC_PHI_N}
+
+
+def line_model_gains(plant) -> dict:
+    """Line-model controller gains for the plant's lines (section 5.4.2: inner loop first, one
+    k_p2 for all lengths; outer loop per length).
+
+    * k_p2 = 2 g c / max(L, 10 m), g = 0.4: at one-sample time scales the valve port sees the
+      line's wave impedance rho c / A, not the half line volume A L / 2 the inner loop (eq 72)
+      assumes, so its per-sample loop gain is k_p2 L / (2 c); held at 0.4 on the longest line
+      of chapter V, one value (27.5 /s) for all lines up to 10 m.  That bound alone allows
+      more: on the 20-segment distributed plant a 500 Hz inner-loop oscillation appears at 5 m
+      from k_p2 ~ 34 /s (0.6 N line in F_vd - F_V; 0.1 N at 27.5 /s), at 10 m from ~ 65 /s,
+      not below 75 /s at 2 m; it moves with the segment count (none at 5 m with 10 or 40
+      segments), i.e. the ladder's cut-off c / (pi dx) ~ 440 Hz near the loop's 500 Hz Nyquist
+      frequency sets it, so g is the margin to that.
+    * k_m = 2 zeta w_L, zeta = 1: the flow term critically damps the line mode.
+    * k_p1 = (0.75 w_L - lambda) / h_bar (>= 0), lambda = 10 /s: the nominal outer-loop rate
+      lambda + h_bar k_p1 (section 5.3.2) is three quarters of the line mode, so the outer loop
+      stays below the line it drives (at 2 m h_bar is 19 times larger than at 10 m: a fixed
+      k_p1 that suits 5-10 m makes the 2 m outer loop faster than its line and unstable)."""
+    ld = line_dynamics(plant)
+    kp1 = max(0.0, (OUTER_RATE_FRACTION * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
+    kp2 = 2 * INNER_SAMPLE_GAIN * ld.speed_of_sound_m_s / max(ld.length_m, INNER_DESIGN_LENGTH_M)
+    return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2,
+            "flow_rate_per_s": 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s}
 
 
 # --- controllers ----------------------------------------------------------------------------------

@@ -20,6 +20,7 @@ parameters are never adjusted to reach a thesis number.
 """
 from __future__ import annotations
 
+import json
 import math
 import warnings
 from dataclasses import dataclass, field, replace
@@ -29,7 +30,7 @@ import xarray as xr
 
 from sensor.errors import SensorError
 from sensor.pneumatic.controllers import (CONTROLLERS, Impedance, LineModel, PIForce, Reference, SlidingMode,
-                                          parse_reference)
+                                          line_model_gains, parse_reference, smc_gains)
 from sensor.pneumatic.cylinder import Environment, mass_spring_damper, spring_contact
 from sensor.pneumatic.lines import make_line
 from sensor.pneumatic.observer import OBSERVER_KINDS, ObserverModel, PressureObserver
@@ -91,11 +92,28 @@ def build_plant(setup: Setup) -> Plant:
     return Plant(valve=VALVES[setup.valve], line_1=line, line_2=line, environment=setup.environment)
 
 
-def make_controller(setup: Setup, model: ObserverModel, dt_s: float):
+def default_gains(setup: Setup, plant: Plant) -> dict:
+    """The gains of section 5.4.2 for the setup's lines (:func:`~sensor.pneumatic.controllers.smc_gains`,
+    :func:`~sensor.pneumatic.controllers.line_model_gains`); PI and impedance keep their class
+    defaults (chapter IV, 7.25 m)."""
+    if setup.controller == "smc":
+        return smc_gains(plant)
+    if setup.controller == "line-model":
+        return line_model_gains(plant)
+    return {}
+
+
+def controller_gains(setup: Setup, plant: Plant) -> dict:
+    """:func:`default_gains` overridden by ``setup.gains``."""
+    return {**default_gains(setup, plant), **dict(setup.gains)}
+
+
+def make_controller(setup: Setup, model: ObserverModel, dt_s: float, plant: Plant | None = None):
+    """The setup's controller: :func:`default_gains` overridden by ``setup.gains``."""
     ref = setup.ref
     obs = PressureObserver(model, setup.observer, model.gain_for_rate(setup.observer_rate_Hz), dt_s,
                            gain_on_s=setup.observer_on_s)
-    gains = dict(setup.gains)
+    gains = controller_gains(setup, build_plant(setup) if plant is None else plant)
     try:
         if setup.controller == "pi":
             return PIForce(model, ref, obs, dt_s, **gains)
@@ -134,7 +152,7 @@ def run(setup: Setup, rate_Hz: float = 1000.0) -> xr.Dataset:
     plant = build_plant(setup)
     model = ObserverModel.from_plant(plant)
     dt = 1.0 / rate_Hz
-    ctrl = make_controller(setup, model, dt)
+    ctrl = make_controller(setup, model, dt, plant)
     check_capacity(setup, model)
     sensors = Sensors() if setup.force_sensor is None else Sensors(force=setup.force_sensor)
     ds = simulate(plant, ctrl, setup.duration_s, rate_Hz, sensors)
@@ -149,7 +167,9 @@ def run(setup: Setup, rate_Hz: float = 1000.0) -> xr.Dataset:
                       f"stroke {stroke * 1e3:.3g} mm): eq 18 then misses the stop force", CapacityWarning,
                       stacklevel=2)
     ds.attrs.update({"controller": setup.controller, "observer": setup.observer, "reference": setup.reference,
-                     "amplitude_N": setup.amplitude_N, "line_length_m": setup.line_length_m})
+                     "amplitude_N": setup.amplitude_N, "line_length_m": setup.line_length_m,
+                     "gains": json.dumps({k: v for k, v in controller_gains(setup, plant).items()
+                                         if isinstance(v, (int, float))})})
     return ds
 
 
