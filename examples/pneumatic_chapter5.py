@@ -1,7 +1,9 @@
 """Chapter V side by side: the cascaded line-model controller vs the standard sliding-mode
 controller on 2, 5, 7.25 and 10 m lines with step, 0.5, 1 and 2 Hz references (Table 4, Figure
 32), the virtual-input tracking (Figures 33-34) and the chamber-pressure estimation of the line
-model vs the standard model (Figure 37), on the simulated high-fidelity plant.
+model vs the standard model (Figure 37), on the simulated high-fidelity plant.  Gains per line
+length as section 5.4.2, derived from the line's dynamics (smc_gains, line_model_gains in
+sensor.pneumatic.controllers), the same for every reference on a length.
 
 Run:  .venv/bin/python examples/pneumatic_chapter5.py [OUT_DIR]
 Prints the tables, Table 4's numbers in brackets, and each thesis claim with the simulation's

@@ -103,12 +103,15 @@ def _run_one(args) -> dict:
     m = metrics(ds, setup.ref)
     result = {"controller": setup.controller, "observer": setup.observer, "reference": setup.reference,
               "amplitude_N": setup.amplitude_N, "line_length_m": setup.line_length_m, "valve": setup.valve,
-              "sensor": args.sensor or "load cell", "duration_s": setup.duration_s, **m}
+              "sensor": args.sensor or "load cell", "duration_s": setup.duration_s,
+              "gains": json.loads(ds.attrs["gains"]), **m}
     if not args.no_plots:
         result["plot"] = str(plot_run(ds, setup, args.out / "loop.png"))
     if not args.json:
         print(f"{setup.controller} control, {setup.observer} observer, {setup.reference} ({setup.amplitude_N:g} N), "
               f"{setup.line_length_m:g} m lines, {setup.valve}, sensor: {result['sensor']}")
+        if result["gains"]:
+            print("  gains (section 5.4.2, from the line): " + ", ".join(f"{k} {v:.4g}" for k, v in result["gains"].items()))
         print(f"  force-control MSE         {m['force_mse_N2']:10.3f} N^2   (window {m['window_s'][0]:.2f}-"
               f"{m['window_s'][1]:.2f} s)")
         print(f"  pressure MSE (eq 44)      {m['pressure_mse_kPa2']:10.2f} kPa^2 ({setup.observer} estimate)")

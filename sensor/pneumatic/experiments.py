@@ -248,7 +248,8 @@ def _row(setup: Setup, **extra) -> dict:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CapacityWarning)
         ds = run(setup)
-    out = {**extra, **metrics(ds, setup.ref), "warnings": [str(w.message) for w in caught]}
+    out = {**extra, **metrics(ds, setup.ref), "gains": json.loads(ds.attrs["gains"]),
+           "warnings": [str(w.message) for w in caught]}
     return out, ds
 
 
@@ -314,7 +315,8 @@ TABLE4 = {2.0: {"sine:0.5Hz": (6.38, 4.33), "sine:1Hz": (9.28, 5.68), "sine:2Hz"
 def controller_study(duration_s: float = 6.0, amplitude_N: float = 24.0, segments: int = 20,
                      lengths=CH5_LENGTHS_M, references=CH5_REFERENCES, keep_runs=()) -> dict:
     """Chapter V: line-model controller vs standard SMC (standard-model pressures) on 2, 5, 7.25
-    and 10 m lines with step, 0.5, 1 and 2 Hz references, Enfield valve, fixed gains."""
+    and 10 m lines with step, 0.5, 1 and 2 Hz references, Enfield valve; gains per length from
+    the line (:func:`default_gains`, section 5.4.2), the same for every reference."""
     rows, runs = [], {}
     for length in lengths:
         for ref in references:
@@ -416,6 +418,14 @@ def controller_tables(res: dict) -> str:
                 cell += f" [{th[0]:g} / {th[1]:g}]"
             cells.append(cell)
         lines.append(f"| {length:g} m | " + " | ".join(cells) + " |")
+    lines += ["", "Gains per length (section 5.4.2, from the line's dynamics: smc_gains, line_model_gains):", "",
+              "| length | SMC eta (N/s) / phi (N) / lambda (1/s) | line model k_p1 / lambda (1/s) / k_m (1/s) / k_p2 (1/s) |",
+              "|---|---|---|"]
+    for length in dict.fromkeys(r["line_length_m"] for r in rows):
+        g = {r["controller"]: r["gains"] for r in rows if r["line_length_m"] == length}
+        s, m = g["smc"], g["line-model"]
+        lines.append(f"| {length:g} m | {s['eta_N_s']:.4g} / {s['phi_N']:.3g} / {s['lam_per_s']:.3g} | {m['kp1']:.3g} / "
+                     f"{m['lam_per_s']:.3g} / {m['flow_rate_per_s']:.4g} / {m['kp2_per_s']:.3g} |")
     lines += ["", "### Chapter V: chamber-pressure estimation from the valve pressures (Figure 37)", "",
               "| length | reference | standard model (kPa^2) | two-volume line model (kPa^2) |", "|---|---|---|---|"]
     for r in rows:

@@ -26,6 +26,7 @@ def test_line_model_json_has_the_virtual_input_mse(capsys):
                  "--amplitude", "10", "--json", "--no-plots"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["valve"] == "enfield-lh05" and out["virtual_input_mse_N2"] >= 0
+    assert set(out["gains"]) == {"lam_per_s", "kp1", "kp2_per_s", "flow_rate_per_s"}     # derived, section 5.4.2
     assert out["line_model_pressure_mse_kPa2"] < out["pressure_mse_kPa2"]     # Figure 37's claim
 
 
