@@ -200,15 +200,23 @@ def solve_row(spec: SweepSpec, hinges: str, i: int, todo: np.ndarray | None = No
 
 
 def _monte_carlo_row(spec, hinges, i, designs, cells, n_phi2, opts) -> dict:
-    """Each feasible cell repeated with hinge thicknesses drawn around the nominal."""
+    """Each feasible cell repeated with hinge thicknesses drawn around the nominal.
+
+    A draw with a hinge thinner than the process can hold (``min_feature_mm``) is a part
+    that could not be made, and a draw the solver cannot take to the target travel is one
+    that would not work: both count against the cell's yield and stay out of the statistics.
+    """
     stats = {f"{k}_{s}": np.full(n_phi2, np.nan) for k in MC_QUALIFIERS for s in ("mean", "std", "p10")}
+    stats["yield"] = np.full(n_phi2, np.nan)
     for d, j in zip(designs, cells):
         rng = _cell_seed(spec.seed, hinges, i, j)
         nominal = np.array(d.hinge_thickness_mm)
         draws = nominal + spec.hinge_sd_mm * rng.standard_normal((spec.monte_carlo, len(nominal)))
-        draws = np.maximum(draws, 0.05)  # a physical floor (mm); recorded in the README
-        models = [build_beam_model(d.replace(hinge_thickness_mm=tuple(t))) for t in draws]
-        res, _ = solve_batch(models, target_output_mm=spec.target_output_mm, options=opts)
+        used = slice(None, 8) if d.is_basis else slice(None)
+        makeable = draws[:, used].min(axis=1) >= d.min_feature_mm
+        models = [build_beam_model(d.replace(hinge_thickness_mm=tuple(t))) for t in draws[makeable]]
+        res, _ = solve_batch(models, target_output_mm=spec.target_output_mm, options=opts) if models else ([], [])
+        stats["yield"][j] = sum(r is not None for r in res) / spec.monte_carlo
         vals = _qualifiers(res)
         for k in MC_QUALIFIERS:
             v = vals[k][np.isfinite(vals[k])]
@@ -245,6 +253,9 @@ def empty_dataset(spec: SweepSpec, version: str) -> xr.Dataset:
             for s in ("mean", "std", "p10"):
                 dv[f"mc_{k}_{s}"] = (("hinges", "phi1_deg", "phi2_deg"), np.full(shape3, np.nan),
                                      {"units": QUALIFIERS[k], "monte_carlo": s})
+        dv["mc_yield"] = (("hinges", "phi1_deg", "phi2_deg"), np.full(shape3, np.nan),
+                          {"units": "1", "long_name": "fraction of draws that can be cut "
+                           "(every hinge >= min_feature_mm) and reach the target travel"})
     ds = xr.Dataset(dv, coords=coords)
     ds["phi1_deg"].attrs["units"] = ds["phi2_deg"].attrs["units"] = "degree"
     ds.attrs.update({

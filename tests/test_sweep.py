@@ -212,6 +212,20 @@ def test_monte_carlo_is_seeded_and_independent_of_scheduling():
     assert np.isfinite(q).all() and (q > 0).all()
     # the robust (10th percentile) quality is below the mean
     assert (a["mc_quality_mm_per_N_p10"] < a["mc_quality_mm_per_N_mean"]).all()
+    # each 0.3 mm middle hinge falls below the 0.25 mm the process holds with probability
+    # Phi(-1.67) = 4.8 %, so about 82 % of parts can be cut; 6 draws a cell
+    assert ((a["mc_yield"] > 0) & (a["mc_yield"] <= 1)).all()
+
+
+def test_monte_carlo_yield_counts_parts_that_cannot_be_cut():
+    """With 0.1 mm scatter on 0.3 mm hinges (12 of them), many draws have a hinge below the
+    0.25 mm the process holds: they are failed parts, not clipped thicknesses."""
+    spec = SweepSpec(hinge_sets=("03-03",), phi1=Grid(20, 20, 1), phi2=Grid(30, 30, 1),
+                     monte_carlo=40, hinge_sd_mm=0.1, seed=1)
+    ds = run_sweep(spec, "test", workers=1)[0]
+    y = float(ds["mc_yield"].values.ravel()[0])
+    # P(all 12 >= 0.25 mm) = Phi(0.5)^12 = 0.0003..: nearly every draw fails
+    assert 0.0 <= y < 0.2
 
 
 # --- bad input ---------------------------------------------------------------------------------
