@@ -77,11 +77,11 @@ class Reference:
             return self.offset_N + self.amplitude_N * (1.0 if math.sin(2 * math.pi * self.frequency_Hz * t) >= 0 else -1.0)
         return self.offset_N + (self.amplitude_N if t >= self.step_s else 0.0)
 
-    def rate(self, t: float) -> float:
-        """dF_d/dt in N/s (zero between the jumps of step and square)."""
+    def rate(self, t: float, order: int = 1) -> float:
+        """d^n F_d / dt^n in N/s^n, n = ``order`` >= 1 (zero between the jumps of step and square)."""
         if self.kind == "sine":
             w = 2 * math.pi * self.frequency_Hz
-            return self.amplitude_N * w * math.cos(w * t)
+            return self.amplitude_N * w**order * math.sin(w * t + order * math.pi / 2)
         return 0.0
 
     def values(self, t: np.ndarray) -> np.ndarray:
@@ -303,7 +303,13 @@ class Impedance(PIForce):
     """Desired force of a critically damped impedance about z_d (eqs 41-43) tracked by the PI law.
 
     z_d = rest_m + F_ref(t) / k_d, so the reference's newtons are the spring force k_d z~ asked
-    for; z~' = -z', z~'' = -z'' between the jumps of z_d."""
+    for; z~ = z_d - z with z_d', z_d'' from the reference (zero between the jumps of a square).
+
+    The rate returned with F_d (the F_d' of eqs 46-47 for :class:`SlidingMode`) is the part the
+    reference moves, k_d z_d' + b_d z_d'' + m_d z_d^(3); the measured part -k_d z' - b_d z'' is
+    left to the robustness term as a bounded disturbance (section 4.2.2).  Fed forward it reaches
+    the piston only after the lines' transport delay L/c and limit-cycles near c/(2L) (23.5 Hz,
+    21 N RMS force error at 7.25 m, for every eta tried)."""
 
     def __init__(self, model, reference, observer, dt_s=1e-3, kp_per_N=0.005, ki_per_N_s=0.05,
                  stiffness_N_m=2000.0, mass_kg=0.05, rest_m=None):
@@ -314,9 +320,11 @@ class Impedance(PIForce):
         self.rest = model.q[Q_STROKE] / 2 if rest_m is None else rest_m
 
     def desired(self, t, m):
-        zd = self.rest + self.reference.value(t) / self.kd
-        fd = self.kd * (zd - m["position_m"]) - self.bd * m["velocity_m_s"] - self.md * m["acceleration_m_s2"]
-        return fd, self.reference.rate(t) - self.kd * m["velocity_m_s"] - self.bd * m["acceleration_m_s2"]
+        ref = self.reference
+        zd = self.rest + ref.value(t) / self.kd
+        fd = (self.kd * (zd - m["position_m"]) + self.bd * (ref.rate(t) / self.kd - m["velocity_m_s"])
+              + self.md * (ref.rate(t, 2) / self.kd - m["acceleration_m_s2"]))
+        return fd, ref.rate(t) + (self.bd * ref.rate(t, 2) + self.md * ref.rate(t, 3)) / self.kd
 
 
 class SlidingMode(_Loop):
