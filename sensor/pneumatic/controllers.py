@@ -237,9 +237,12 @@ def line_model_gains(plant) -> dict:
       of chapter V, one value (27.5 /s) for all lines up to 10 m.  That bound alone allows
       more: on the 20-segment distributed plant a 500 Hz inner-loop oscillation appears at 5 m
       from k_p2 ~ 34 /s (0.6 N line in F_vd - F_V; 0.1 N at 27.5 /s), at 10 m from ~ 65 /s,
-      not below 75 /s at 2 m; it moves with the segment count (none at 5 m with 10 or 40
-      segments), i.e. the ladder's cut-off c / (pi dx) ~ 440 Hz near the loop's 500 Hz Nyquist
-      frequency sets it, so g is the margin to that.
+      not below 75 /s at 2 m.  Its onset jumps with the segment count and does not settle as
+      dx shrinks (1 Hz sine, 3 s: 10 m oscillates at k_p2 = 15 /s with 46 segments and at 27.5
+      /s with 132, not at 27.5 /s with 20, 66, 92 or 200; 5 m at 15 /s with 23, at 40 /s with
+      66, not at 90 /s with 46 or 92; 7.25 m at 15 /s with 34, not at 40 /s with 20, 66, 132),
+      so resolving the ladder up to the 500 Hz Nyquist frequency does not lift the bound and
+      k_p2 is not raised.
     * k_m = 2 zeta w_L, zeta = 1: the flow term critically damps the line mode.
     * k_p1 = (0.75 w_L - lambda) / h_bar (>= 0), lambda = 10 /s: the nominal outer-loop rate
       lambda + h_bar k_p1 (section 5.3.2) is three quarters of the line mode, so the outer loop
