@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geometry.errors import InfeasibleDesignError
-from geometry.layout import Layout, Part, _bar, make_layout, make_parts
+from geometry.layout import Part, bar, make_layout, make_parts
 from geometry.params import Design
 
 #: Smallest mirror the platform must carry (mm): DESIGN section 3 ("a mirror of about 3-5 mm").
@@ -63,7 +63,7 @@ def phi2_limit_deg(d: Design) -> float:
 
 def _free_polygons(parts: list[Part]) -> np.ndarray:
     """(P, 4, 2) polygons with hinges cut back to their flexible length (no root overlap)."""
-    return np.array([_bar(p.axis[0], p.axis[1], p.width) if p.kind == "hinge" else p.polygon
+    return np.array([bar(p.axis[0], p.axis[1], p.width) if p.kind == "hinge" else p.polygon
                      for p in parts])
 
 

@@ -90,7 +90,7 @@ def _rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
 
 
-def _bar(a: np.ndarray, b: np.ndarray, width: float, extend_a: float = 0.0,
+def bar(a: np.ndarray, b: np.ndarray, width: float, extend_a: float = 0.0,
          extend_b: float = 0.0) -> np.ndarray:
     """Rectangle of ``width`` around segment a-b, lengthened past a and b (into the bodies
     the segment is rooted in, so the union has no notch)."""
@@ -144,11 +144,11 @@ def make_parts(lay: Layout) -> list[Part]:
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         # a root reaches 2 t into its rigid body: that closes the notch between the neck
         # and the body's face for any angle below atan(4) = 76 deg, and stays inside it
-        parts.append(Part(f"hinge {h1}", "hinge", _bar(nodes[0], nodes[1], t1, extend_a=2 * t1), h1,
+        parts.append(Part(f"hinge {h1}", "hinge", bar(nodes[0], nodes[1], t1, extend_a=2 * t1), h1,
                           nodes[0:2], t1))
-        parts.append(Part(f"{name} link", "link", _bar(nodes[1], nodes[2], d.link_width_mm), 0,
+        parts.append(Part(f"{name} link", "link", bar(nodes[1], nodes[2], d.link_width_mm), 0,
                           nodes[1:3], d.link_width_mm))
-        parts.append(Part(f"hinge {h2}", "hinge", _bar(nodes[2], nodes[3], t2, extend_b=2 * t2), h2,
+        parts.append(Part(f"hinge {h2}", "hinge", bar(nodes[2], nodes[3], t2, extend_b=2 * t2), h2,
                           nodes[2:4], t2))
     return parts
 

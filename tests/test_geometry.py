@@ -130,7 +130,6 @@ def _rigid_linkage_amplification(design):
     translate, the top plate moves down. Least squares over the pivot equations."""
     m = build_beam_model(design)
     lay = make_layout(design)
-    bodies = {"ground": None, "top": None, "kneeL": None, "kneeR": None, "platform": None}
     # unknowns: knee (ux, uy) x 2, platform uy, each link (ux, uy, th); top uy = -1 given
     links = [i for i, k in enumerate(m.member_kind) if k == "link"]
     n_unk = 5 + 3 * len(links)

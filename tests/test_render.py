@@ -4,7 +4,7 @@ energy density, the off-screen picture (no display) and the CLI's bad-input hand
 import numpy as np
 import pytest
 
-from geometry.layout import Part, _bar, make_layout, make_parts
+from geometry.layout import Part, bar, make_layout, make_parts
 from geometry.params import preset
 from geometry.topology import BeamModel, build_beam_model
 from sensor.cli import main
@@ -77,7 +77,7 @@ def test_member_interpolation_matches_the_cantilever_closed_form():
                       input_direction=np.array([0.0, -1.0]), output_node=1,
                       output_direction=np.array([0.0, -1.0]), E_MPa=E, nu=nu)
     result = solve(model, target_force_N=F)
-    parts = [Part("hinge 1", "hinge", _bar(model.nodes[0], model.nodes[1], t), 1,
+    parts = [Part("hinge 1", "hinge", bar(model.nodes[0], model.nodes[1], t), 1,
                   model.nodes.copy(), t)]
     x = np.linspace(0.0, L, 21)
     points = np.column_stack([x, np.zeros_like(x)])
