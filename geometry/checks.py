@@ -91,7 +91,7 @@ def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.
     return dist, ~separated
 
 
-_ROOTS = {1: "base plate", 2: "left knee", 3: "left knee", 4: "top plate", 5: "top plate",
+_ROOTS = {1: "base plate", 2: "left knee", 3: "left knee", 4: "top plate left", 5: "top plate right",
           6: "right knee", 7: "right knee", 8: "base plate", 9: "left knee", 10: "platform",
           11: "platform", 12: "right knee"}
 
@@ -109,6 +109,7 @@ def _free_pairs(names: tuple[str, ...], kinds: tuple[str, ...], hinges: tuple[in
             joined.add((min(idx[a], idx[b]), max(idx[a], idx[b])))
 
     join("fiber post", "base plate")
+    join("top plate left", "top plate right")
     for i, kind in enumerate(kinds):
         if kind == "link":
             h1, h2 = i - 1, i + 1

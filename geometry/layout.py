@@ -126,9 +126,15 @@ def make_parts(lay: Layout) -> list[Part]:
     d = lay.design
     W, H = d.width_mm, d.height_mm
     top_half = -lay.P3[0] + d.link_width_mm
+    yc = lay.y_top + d.plate_thickness_mm / 2  # the top plate's centre line
     parts = [
         Part("base plate", "plate", _rect(-W / 2, 0.0, W / 2, lay.y_base)),
-        Part("top plate", "plate", _rect(-top_half, lay.y_top, top_half, H)),
+        # the top plate bends (it spans the top hinges): two halves, each along its centre
+        # line from the middle to a top hinge, like the beam model's two plate members
+        Part("top plate left", "plate", _rect(-top_half, lay.y_top, 0.0, H), 0,
+             np.array([[0.0, yc], [lay.P3[0], yc]]), d.plate_thickness_mm),
+        Part("top plate right", "plate", _rect(0.0, lay.y_top, top_half, H), 0,
+             np.array([[0.0, yc], [-lay.P3[0], yc]]), d.plate_thickness_mm),
         Part("left knee", "block", _rect(-W / 2, lay.P1[1], -W / 2 + d.knee_width_mm, lay.P2[1])),
         Part("right knee", "block", _rect(W / 2 - d.knee_width_mm, lay.P1[1], W / 2, lay.P2[1])),
         Part("fiber post", "post", _rect(-d.fiber_post_width_mm / 2, lay.y_base - d.plate_thickness_mm / 2,

@@ -85,9 +85,9 @@ class Design:
     width_mm: float = 25.0
     height_mm: float = 30.0
     sheet_thickness_mm: float = 5.1
-    hinge_length_mm: float = 2.70
+    hinge_length_mm: float = 2.82
     link_width_mm: float = 2.0
-    plate_thickness_mm: float = 1.5
+    plate_thickness_mm: float = 2.0
     knee_width_mm: float = 2.5
     knee_height_mm: float = 2.0
     platform_width_mm: float = 4.0

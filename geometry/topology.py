@@ -99,21 +99,29 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     base_l, base_r = node(lay.P0), node(lay.P0 * mirror)
     knee_lo_l, knee_hi_l = node(lay.P1), node(lay.P2)
     knee_lo_r, knee_hi_r = node(lay.P1 * mirror), node(lay.P2 * mirror)
-    inp = node(lay.input_point)  # first node of the top plate: the body's reference node
+    inp = node(lay.input_point)  # first node of the input body: its reference node
+    yc = lay.y_top + d.plate_thickness_mm / 2           # the top plate's centre line
+    plate_mid = node((0.0, yc))
+    plate_l, plate_r = node((lay.P3[0], yc)), node((-lay.P3[0], yc))
     top_l, top_r = node(lay.P3), node(lay.P3 * mirror)
     anchor = {tuple(np.round(p, 12)): i for i, p in
               ((base_l, lay.P0), (base_r, lay.P0 * mirror), (knee_lo_l, lay.P1),
                (knee_hi_l, lay.P2), (knee_lo_r, lay.P1 * mirror), (knee_hi_r, lay.P2 * mirror),
                (top_l, lay.P3), (top_r, lay.P3 * mirror))}
 
-    # rigid bodies: top plate (input), knee blocks, and the output (platform or top plate)
-    members += [("rigid", top_l, inp, d.plate_thickness_mm, 0, "top plate"),
-                ("rigid", inp, top_r, d.plate_thickness_mm, 0, "top plate"),
+    # the top plate bends between the top hinges: two members along its centre line, with
+    # rigid offsets up to the input point and down to the hinge roots on its underside;
+    # knee blocks and the platform are compact enough to be rigid bodies
+    members += [("rigid", inp, plate_mid, d.plate_thickness_mm, 0, "top plate"),
+                ("link", plate_mid, plate_l, d.plate_thickness_mm, 0, "top plate left"),
+                ("link", plate_mid, plate_r, d.plate_thickness_mm, 0, "top plate right"),
+                ("rigid", plate_l, top_l, d.plate_thickness_mm, 0, "top plate"),
+                ("rigid", plate_r, top_r, d.plate_thickness_mm, 0, "top plate"),
                 ("rigid", knee_lo_l, knee_hi_l, d.knee_width_mm, 0, "left knee"),
                 ("rigid", knee_lo_r, knee_hi_r, d.knee_width_mm, 0, "right knee")]
     if d.is_basis:
         out = node(lay.output_point)
-        members.append(("rigid", inp, out, d.plate_thickness_mm, 0, "top plate"))
+        members.append(("rigid", plate_mid, out, d.plate_thickness_mm, 0, "top plate"))
     else:
         k_l, k_r = node(lay.K), node(lay.K * mirror)
         q_l, q_r = node(lay.Q), node(lay.Q * mirror)

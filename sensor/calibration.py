@@ -4,7 +4,7 @@ Like the thesis calibrated E on the basis specimen (section 6.2.4), the hinge le
 one effective parameter of this model: it is calibrated once, on the basis specimen with
 its measured hinge thicknesses (Table 7), to the thesis' analytic sensitivity of the basis
 (0.202 mm/N, Table 6), and then held fixed for every other prediction. The result is the
-default ``Design.hinge_length_mm`` (2.70 mm).
+default ``Design.hinge_length_mm`` (2.82 mm).
 """
 
 from __future__ import annotations

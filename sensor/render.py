@@ -126,7 +126,7 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
     motions: list[PartMotion | None] = [None] * len(parts)
     flex = [m for m, k in enumerate(model.member_kind) if k != "rigid"]
     for i, p in enumerate(parts):
-        if p.kind in _RIGID_KINDS:
+        if p.axis is None:
             continue
         for m in flex:
             a, b = (int(v) for v in model.member_nodes[m])
@@ -138,7 +138,7 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
         if motions[i] is None:
             raise SensorError(f"layout part {p.name!r} matches no compliant member of the beam "
                               "model: model and design do not match")
-    rigid = [i for i, p in enumerate(parts) if p.kind in _RIGID_KINDS]
+    rigid = [i for i, p in enumerate(parts) if p.axis is None]
     for i in rigid:
         on = np.flatnonzero(polygon_distance(parts[i].polygon, model.nodes) <= ON_PART_TOL_MM)
         moving = {int(body[n]) for n in on if free[body[n]]}

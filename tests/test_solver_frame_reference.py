@@ -9,11 +9,11 @@ Measured (n = 32, relative difference solver/reference - 1, at the solver's 1-mm
 
     preset            A        k_out    SE
     basis             0.00 %   0.00 %   -0.00 %
-    sample-a         +0.01 %   0.00 %   -0.01 %
-    sample-b         +0.04 %  +0.05 %   -0.16 %
-    basis-as-cut      0.00 %   0.00 %   -0.00 %
+    sample-a         +0.01 %  -0.00 %   -0.01 %
+    sample-b         +0.03 %  +0.06 %   -0.14 %
+    basis-as-cut      0.00 %  -0.00 %   -0.00 %
     sample-a-as-cut  +0.01 %  -0.00 %   -0.01 %
-    sample-b-as-cut  +0.08 %  +0.06 %   -0.26 %
+    sample-b-as-cut  +0.03 %  +0.06 %   -0.16 %
 
 Before the solver's members carried the bowing (shallow-arch) term, its one linear element
 per member left sample-b's k_out 2.4 % low; splitting members converged it as 1/n^2. With the

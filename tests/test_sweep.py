@@ -30,17 +30,30 @@ def _cells(ds, hinges, phi2_min=0.0):
 
 @pytest.mark.parametrize("hinges", ["05-03", "03-03"])
 def test_amplification_rises_as_phi2_falls_down_to_the_toggle_band(trend, hinges):
-    """Every phi1 row: A strictly increases as phi2 decreases, down to one peak; the peak
-    lies in the small-phi2 band (<= 20 deg; measured 6.6-17 deg, higher at small phi1)
-    where the middle link nearly flattens during the 1 mm travel."""
+    """Every phi1 row from 15 deg: A strictly increases as phi2 decreases, down to one peak
+    in the small-phi2 band (<= 20 deg; measured 9-17 deg) where the middle link nearly
+    flattens during the 1 mm travel."""
     s, f = _cells(trend, hinges)
     phi2 = s["phi2_deg"].values
-    for i in range(f.shape[0]):
+    for i in np.flatnonzero(s["phi1_deg"].values >= 15.0):
         a = np.where(f[i], s["ratio_amplification"].values[i], np.nan)
         j = int(np.nanargmax(a))
         above = a[j:][np.isfinite(a[j:])]
         assert np.all(np.diff(above) < 0), f"row phi1 = {float(s.phi1_deg[i])}"
         assert phi2[j] <= 20.0
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "steep leverage: for phi1 below about 13 deg the peak amplification sits at phi2 of "
+    "22-33 deg, not in the toggle band: such bodies need large input forces, and their "
+    "links, hinges and top plate deform enough to eat the kinematic gain of a flatter "
+    "middle link"))
+def test_amplification_peak_lies_in_the_toggle_band_for_every_phi1(trend):
+    s, f = _cells(trend, "05-03")
+    phi2 = s["phi2_deg"].values
+    for i in range(f.shape[0]):
+        a = np.where(f[i], s["ratio_amplification"].values[i], np.nan)
+        assert phi2[int(np.nanargmax(a))] <= 20.0
 
 
 @pytest.mark.xfail(strict=True, reason=(

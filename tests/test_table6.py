@@ -22,14 +22,9 @@ def test_default_hinge_length_is_the_basis_calibration():
     assert calibrate_hinge_length() == pytest.approx(Design().hinge_length_mm, rel=0.01)
 
 
-KNOWN_MISSES = {
-    ("sample-b", "amplification"): "at 1 mm the middle links flatten (phi2 falls) and the secant "
-                                   "amplification rises to 5.22, 27 % above the thesis' 4.11 (the "
-                                   "solver agrees with an independent frame model within 0.1 %)",
-    ("sample-a", "sensitivity"): "model sample A is 26 % more compliant than the thesis' model",
-    ("sample-a", "strain_energy"): "SE = 1 / (2 A sensitivity): A (+14 %) and sensitivity (+26 %) "
-                                   "both high give SE 29 % low",
-}
+# The thesis' own model error against the specimens is about 20 %; measured here: sample A
+# A +7 %, sensitivity +24 %, SE -24 %; sample B A +7 %, sensitivity -16 %, SE -7 %.
+KNOWN_MISSES: dict = {}
 
 
 @pytest.mark.parametrize("specimen", ["sample-a", "sample-b"])
@@ -54,8 +49,10 @@ def test_orderings_of_table6(rows):
     assert a.quality_predicted > s.quality_predicted > b.quality_predicted
 
 
-def test_amplification_is_below_kinematic_limit_only_in_the_linear_regime(rows):
-    """At 1 mm output the middle links flatten (phi2 falls), so the secant amplification
-    exceeds the small-travel A_kin; the thesis' analytic values sit 9 % below A_kin. This
-    is a recorded difference, not tuned away (see README, Table 6)."""
-    assert rows["sample-b"].amplification > 4.498
+def test_amplification_at_1mm_is_below_the_kinematic_limit(rows):
+    """Compliance costs amplification: the thesis' analytic values imply 9 % below A_kin for
+    both samples; the model loses 2 % (A) and 2 % (B) at 1 mm, after the middle links'
+    flattening has given some back."""
+    from geometry.layout import kinematic_amplification
+    assert rows["sample-a"].amplification < kinematic_amplification(21, 34)
+    assert rows["sample-b"].amplification < kinematic_amplification(22, 17.2)
