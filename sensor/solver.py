@@ -459,7 +459,14 @@ def solve_batch(models: list[BeamModel], target_output_mm: float | None = None,
                 m.member_nodes, models[0].member_nodes) or m.member_kind != models[0].member_kind:
             raise SensorError("solve_batch needs models of one connectivity")
     bt = _make_batch(topo, models)
-    return _Run(topo, bt, models, options, displacement_control=target_force_N is None, target=target).run()
+    disp = target_force_N is None
+    run = _Run(topo, bt, models, options, displacement_control=disp, target=target)
+    results, errors = run.run()
+    for b in run.deferred:
+        alone = _Run(topo, _make_batch(topo, [models[b]]), [models[b]], options,
+                     displacement_control=disp, target=target).run()
+        results[b], errors[b] = alone[0][0], alone[1][0]
+    return results, errors
 
 
 class _Run:
@@ -470,6 +477,7 @@ class _Run:
         self.disp = displacement_control
         self.target = target
         self.B = len(models)
+        self.deferred: list[int] = []   # designs set aside to be solved alone
 
     def residual(self, q, lam):
         """Out-of-balance forces, tangent, and both ports' travel and gradient at state q."""
@@ -512,6 +520,15 @@ class _Run:
                 q_try, lam_try = q.copy(), lam.copy()
             ok, q_new, lam_new, res = self.newton(q_try, lam_try, goal, alive, lam_scale,
                                                   verify=new_level >= 1.0 - 1e-12)
+            if not ok[alive].all() and self.B > 1:
+                # set the stubborn designs aside: solve_batch re-runs each alone, where
+                # halving the step costs only it; the rest go on at this step
+                bad = alive & ~ok
+                self.deferred.extend(int(b) for b in np.flatnonzero(bad))
+                alive &= ~bad
+                q_new[bad], lam_new[bad] = q[bad], lam[bad]
+                if not alive.any():
+                    break
             if not ok[alive].all():
                 if step > 1.0 / o.increments / 2**o.max_bisections:
                     step /= 2
