@@ -25,12 +25,21 @@ COMMANDS = ("export", "check", "draw", "solve", "render", "sweep", "sensor", "sn
 USER_ERRORS = (GeometryError, MriError, SensorError, tomllib.TOMLDecodeError, OSError)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (and exit status 2), like every other
+    input error of the tool; `dacm COMMAND --help` still prints the full usage."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="dacm",
         description="Design tool for MRI-compatible optical force sensors (DACM bodies).",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True,
+                                parser_class=_Parser)
     for name in COMMANDS:
         importlib.import_module(f"sensor.commands.{name}").register(sub)
     return parser

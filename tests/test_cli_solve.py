@@ -59,3 +59,12 @@ def test_check_exit_status_says_feasible_or_not(capsys):
     assert report["feasible"] is False
     assert {r["rule"] for r in report["rules"] if not r["ok"]} >= {"no_crossing"}
     assert main(["check", "--hinges", "04-04"]) == 2
+
+
+@pytest.mark.parametrize("argv", [["solve", "--phi1", "abc"], ["nope"], [], ["sweep", "--workers", "x"]])
+def test_argument_errors_are_one_line_with_status_2(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error:" in err[0] and "--help" in err[0]
