@@ -43,11 +43,6 @@ class Material:
     E_MPa: float
     nu: float
 
-    @property
-    def G_MPa(self) -> float:
-        """Shear modulus G = E / (2 (1 + nu)), MPa (used by the shear term of eqs 80-81)."""
-        return self.E_MPa / (2.0 * (1.0 + self.nu))
-
 
 #: Delrin with the thesis' calibrated E = 2.3 GPa (section 6.2.4); ABS as printed (FDM),
 #: E about 1.8 GPa, the thesis' softer second material (section 6.1.3).
@@ -119,6 +114,11 @@ _POSITIVE = (
 )
 
 
+def _is_number(value) -> bool:
+    """A real number (int or float), not a bool or a string."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def validate(d: Design) -> None:
     """Check each parameter on its own (ranges, types); raise :class:`ParameterError`.
 
@@ -126,12 +126,14 @@ def validate(d: Design) -> None:
     """
     for name in _POSITIVE:
         value = getattr(d, name)
-        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        if not _is_number(value) or not math.isfinite(value) or value <= 0:
             raise ParameterError(f"{name} = {value!r}: must be a positive finite number (mm)")
-    if not (0.0 < d.phi1_deg < 90.0):
-        raise ParameterError(f"phi1_deg = {d.phi1_deg!r}: must lie strictly between 0 and 90 degrees")
-    if d.phi2_deg is not None and not (0.0 < d.phi2_deg < 90.0):
-        raise ParameterError(f"phi2_deg = {d.phi2_deg!r}: must lie strictly between 0 and 90 degrees")
+    for name in ("phi1_deg", "phi2_deg"):
+        value = getattr(d, name)
+        if name == "phi2_deg" and value is None:
+            continue
+        if not _is_number(value) or not (0.0 < value < 90.0):
+            raise ParameterError(f"{name} = {value!r}: must be a number strictly between 0 and 90 degrees")
     if len(d.hinge_thickness_mm) != N_HINGES:
         raise ParameterError(
             f"hinge_thickness_mm has {len(d.hinge_thickness_mm)} values: must give hinges 1-{N_HINGES}"
@@ -206,12 +208,19 @@ def design_from_dict(data: dict, source: str = "design") -> Design:
             raise ParameterError(f"material = {mat!r}: unknown; choose one of {', '.join(MATERIALS)} or give a table")
         data["material"] = MATERIALS[mat]
     elif isinstance(mat, dict):
-        try:
-            data["material"] = Material(str(mat["name"]), float(mat["E_MPa"]), float(mat["nu"]))
-        except KeyError as exc:
-            raise ParameterError(f"material table lacks {exc.args[0]!r} (needs name, E_MPa, nu)") from None
+        missing = [k for k in ("name", "E_MPa", "nu") if k not in mat]
+        if missing:
+            raise ParameterError(f"material table lacks {missing[0]!r} (needs name, E_MPa, nu)")
+        for k in ("E_MPa", "nu"):
+            if not _is_number(mat[k]):
+                raise ParameterError(f"material {k} = {mat[k]!r}: must be a number")
+        data["material"] = Material(str(mat["name"]), float(mat["E_MPa"]), float(mat["nu"]))
     if "hinge_thickness_mm" in data:
-        data["hinge_thickness_mm"] = tuple(float(t) for t in data["hinge_thickness_mm"])
+        t = data["hinge_thickness_mm"]
+        if not isinstance(t, (list, tuple)) or not all(_is_number(v) for v in t):
+            raise ParameterError(f"hinge_thickness_mm = {t!r}: must be a list of {N_HINGES} numbers "
+                                 "(mm, hinges 1-12)")
+        data["hinge_thickness_mm"] = tuple(float(v) for v in t)
     elif "hinge_set" in data:
         data["hinge_thickness_mm"] = hinge_set_thicknesses(data["hinge_set"])
     try:

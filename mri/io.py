@@ -66,6 +66,11 @@ def _read_dicom(path: Path):
         raise ImageLoadError(f"{path}: unreadable DICOM file ({exc})") from None
 
 
+def _or_default(value, default: float) -> float:
+    """A DICOM number, or the default when the attribute is absent (not when it is 0)."""
+    return default if value is None else float(value)
+
+
 def _lookup(ds, keyword: str, frame: int = 0):
     """A DICOM attribute from frame ``frame``'s functional groups, the shared ones, or the top level.
 
@@ -76,6 +81,9 @@ def _lookup(ds, keyword: str, frame: int = 0):
         groups = ds.get(group_keyword)
         if not groups:
             continue
+        if group_keyword == "PerFrameFunctionalGroupsSequence" and frame >= len(groups):
+            raise ImageLoadError(f"frame {frame}: the file's per-frame functional groups hold "
+                                 f"only {len(groups)} frames")
         item = groups[min(frame, len(groups) - 1)]
         for element in item:
             if element.VR == "SQ" and len(element.value) and keyword in element.value[0]:
@@ -120,8 +128,10 @@ def _dicom_frames(ds, path: Path) -> np.ndarray:
     except Exception as exc:  # pydicom raises many types for unsupported encodings
         raise ImageLoadError(f"{path}: cannot decode DICOM pixel data ({exc})") from None
     frames = as_pixels(raw, str(path))
-    slopes = [float(_lookup(ds, "RescaleSlope", k) or 1.0) for k in range(frames.shape[0])]
-    intercepts = [float(_lookup(ds, "RescaleIntercept", k) or 0.0) for k in range(frames.shape[0])]
+    slopes = [_or_default(_lookup(ds, "RescaleSlope", k), 1.0) for k in range(frames.shape[0])]
+    intercepts = [_or_default(_lookup(ds, "RescaleIntercept", k), 0.0) for k in range(frames.shape[0])]
+    if any(s == 0.0 for s in slopes):
+        raise ImageLoadError(f"{path}: RescaleSlope = 0 would erase the image")
     if any(s != 1.0 for s in slopes) or any(i != 0.0 for i in intercepts):
         frames = frames * np.array(slopes)[:, None, None] + np.array(intercepts)[:, None, None]
     return frames

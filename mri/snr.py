@@ -119,6 +119,9 @@ def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
 def nema_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     """NEMA MS 1: sample standard deviation of V = a - b in the ROI, divided by sqrt(2)."""
     values = diff if mask is None else diff[mask]
+    if values.size < 2:
+        raise MeasurementError(f"NEMA method: the ROI holds {values.size} pixel(s); a standard "
+                               "deviation needs at least 2")
     return float(np.std(values, ddof=1) / np.sqrt(2.0))
 
 

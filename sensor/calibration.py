@@ -15,6 +15,7 @@ from scipy.optimize import brentq
 
 from geometry.params import preset
 from geometry.topology import build_beam_model
+from sensor.errors import SensorError
 from sensor.hysteresis import DEFAULT_LAW, TABLE6, StrainEnergyLaw
 from sensor.solver import solve
 
@@ -34,6 +35,11 @@ def calibrate_hinge_length(target_sensitivity_mm_per_N: float = TABLE6["basis"].
         d = base.replace(hinge_length_mm=lh)
         return solve(build_beam_model(d)).sensitivity_mm_per_N - target_sensitivity_mm_per_N
 
+    lo, hi = mismatch(bracket[0]), mismatch(bracket[1])
+    if lo * hi > 0:
+        raise SensorError(f"target sensitivity {target_sensitivity_mm_per_N:g} mm/N: no hinge length "
+                          f"in {bracket[0]:g}-{bracket[1]:g} mm reaches it ({specimen} gives "
+                          f"{lo + target_sensitivity_mm_per_N:.4g} to {hi + target_sensitivity_mm_per_N:.4g} mm/N)")
     return brentq(mismatch, *bracket, xtol=1e-4)
 
 

@@ -59,7 +59,6 @@ RIGID_COLOUR = "#b8c4d0"
 #: Where the body sits across the picture (fraction of its width; the colour bar is right).
 BODY_CENTRE_X = 0.43
 
-_RIGID_KINDS = ("plate", "block", "platform", "post")
 _PRIORITY = {"plate": 0, "block": 0, "platform": 0, "post": 0, "hinge": 1, "link": 2}
 
 

@@ -51,8 +51,8 @@ def test_export_from_toml_is_named_after_the_file(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv, message", [
     (["--preset", "sample-z"], "preset = 'sample-z': unknown"),
-    (["--phi1", "95"], "phi1_deg = 95.0: must lie strictly between 0 and 90"),
-    (["--phi2", "0"], "phi2_deg = 0.0: must lie strictly between 0 and 90"),
+    (["--phi1", "95"], "phi1_deg = 95.0: must be a number strictly between 0 and 90"),
+    (["--phi2", "0"], "phi2_deg = 0.0: must be a number strictly between 0 and 90"),
     (["--phi1", "40"], "infeasible design: rule 'angle_limits' fails: phi1_deg = 40"),
     (["--hinges", "07-03"], "hinge_set = '07-03'"),
     (["--design", "hexagon"], "--design = 'hexagon'"),

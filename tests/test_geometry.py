@@ -253,3 +253,18 @@ def test_phi1_limit_is_where_angle_rule_starts_failing():
     ok = {r.rule: r.ok for r in check_design(d.replace(phi1_deg=lim - 0.01)).results}
     bad = {r.rule: r.ok for r in check_design(d.replace(phi1_deg=lim + 0.01)).results}
     assert ok["angle_limits"] and not bad["angle_limits"]
+
+
+@pytest.mark.parametrize("body,fragment", [
+    ('hinge_thickness_mm = ["a"]', "hinge_thickness_mm = ['a']: must be a list of 12 numbers"),
+    ("hinge_thickness_mm = 0.5", "hinge_thickness_mm = 0.5: must be a list"),
+    ('material = {name = "x", E_MPa = "soft", nu = 0.3}', "material E_MPa = 'soft': must be a number"),
+    ('phi1_deg = "22"', "phi1_deg = '22': must be a number"),
+    ("width_mm = true", "width_mm = True: must be a positive finite number"),
+])
+def test_toml_values_of_the_wrong_type_name_the_field(tmp_path, body, fragment):
+    path = tmp_path / "d.toml"
+    path.write_text(body + "\n")
+    with pytest.raises(ParameterError) as exc:
+        load_design(path)
+    assert fragment in str(exc.value)

@@ -242,3 +242,12 @@ def test_magnitude_snr_matches_scipy_rice_moments():
         dist = rice(true_snr)
         assert magnitude_snr(true_snr) == pytest.approx(dist.mean() / dist.std(), rel=1e-9)
     assert magnitude_snr(1000.0) == pytest.approx(1000.0, rel=1e-5)
+
+
+def test_nema_noise_needs_two_pixels():
+    from mri.errors import MriError
+    from mri.snr import nema_noise
+    mask = np.zeros((4, 4), dtype=bool)
+    mask[1, 1] = True
+    with pytest.raises(MriError, match="1 pixel"):
+        nema_noise(np.ones((4, 4)), mask)

@@ -301,3 +301,14 @@ def test_config_file_sets_grid_design_and_monte_carlo(tmp_path, capsys):
     cfg.write_text('wingspan = 3\n')
     assert main(["sweep", "--config", str(cfg), "--out", str(tmp_path), "--quiet"]) == 2
     assert "wingspan" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("line,fragment", [("hinges = []", "hinges = []"),
+                                           ("monte_carlo = 2.7", "monte_carlo = 2.7: must be an integer"),
+                                           ('seed = "x"', "seed = 'x': must be an integer"),
+                                           ("design = 3", "design = 3: must be a table")])
+def test_config_values_of_the_wrong_kind_are_errors_not_defaults(tmp_path, capsys, line, fragment):
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text(f'{line}\nphi1 = "20:22:2"\nphi2 = "20:30:2"\n')
+    assert main(["sweep", "--config", str(cfg), "--out", str(tmp_path), "--quiet", "--no-plots"]) == 2
+    assert fragment in capsys.readouterr().err

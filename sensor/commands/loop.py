@@ -167,13 +167,10 @@ def _plt():
 
 
 def _save(fig, path: Path) -> Path:
-    from geometry.atomic import atomic_path
+    from geometry.atomic import save_figure
 
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=90, format="png")
-    _plt().close(fig)
-    return path
+    return save_figure(fig, path, dpi=90)
 
 
 def plot_run(ds, setup, path: Path) -> Path:

@@ -59,23 +59,31 @@ def spec_from_args(args: argparse.Namespace):
         if unknown:
             raise SweepError(f"{args.config}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
     d = SweepSpec()
-    hinges = args.hinges or cfg.get("hinges") or list(d.hinge_sets)
+    hinges = args.hinges if args.hinges is not None else cfg.get("hinges", list(d.hinge_sets))
     if isinstance(hinges, str):
         hinges = [hinges]
+    if not isinstance(hinges, list) or not hinges:
+        raise SweepError(f"hinges = {hinges!r}: must name at least one hinge set (05-03, 03-03)")
     phi1 = Grid.parse(args.phi1, "--phi1") if args.phi1 else (Grid.parse(cfg["phi1"], "phi1") if "phi1" in cfg else d.phi1)
     phi2 = Grid.parse(args.phi2, "--phi2") if args.phi2 else (Grid.parse(cfg["phi2"], "phi2") if "phi2" in cfg else d.phi2)
 
-    def pick(flag, key, default):
-        return flag if flag is not None else cfg.get(key, default)
+    def pick(flag, key, default, kind):
+        value = flag if flag is not None else cfg.get(key, default)
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if not ok or (kind is int and value != int(value)):
+            raise SweepError(f"{key} = {value!r}: must be {'an integer' if kind is int else 'a number'}")
+        return kind(value)
 
+    if not isinstance(cfg.get("design", {}), dict):
+        raise SweepError(f"design = {cfg['design']!r}: must be a table of design fields")
     try:
         return SweepSpec(
             hinge_sets=tuple(dict.fromkeys(hinges)), phi1=phi1, phi2=phi2,
-            target_output_mm=float(pick(args.target_output, "target_output_mm", d.target_output_mm)),
+            target_output_mm=pick(args.target_output, "target_output_mm", d.target_output_mm, float),
             base=dict(cfg.get("design", {})),
-            monte_carlo=int(pick(args.monte_carlo, "monte_carlo", 0)),
-            hinge_sd_mm=float(pick(args.hinge_sd, "hinge_sd_mm", 0.0)),
-            seed=int(pick(args.seed, "seed", 0)))
+            monte_carlo=pick(args.monte_carlo, "monte_carlo", 0, int),
+            hinge_sd_mm=pick(args.hinge_sd, "hinge_sd_mm", 0.0, float),
+            seed=pick(args.seed, "seed", 0, int))
     except GeometryError as exc:
         raise SweepError(f"[design] table: {exc}") from None
 

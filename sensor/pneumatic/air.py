@@ -52,19 +52,10 @@ class Air:
         """Ideal-gas density rho = P / (R T) in kg/m^3 (eq 11)."""
         return pressure_Pa / self.rt
 
-    def kinematic_viscosity(self, pressure_Pa: float) -> float:
-        """nu = mu / rho in m^2/s at the given pressure."""
-        return self.viscosity_Pa_s / self.density(pressure_Pa)
-
     @property
     def speed_of_sound(self) -> float:
         """Adiabatic speed of sound c = sqrt(gamma R T) in m/s (the c of eq 4)."""
         return math.sqrt(self.gamma * self.rt)
-
-    @property
-    def isothermal_speed_of_sound(self) -> float:
-        """Isothermal speed of sound sqrt(R T) in m/s (low-frequency limit in a thin tube)."""
-        return math.sqrt(self.rt)
 
     def reynolds(self, mass_flow_kg_s: float, bore_m: float) -> float:
         """Pipe Reynolds number Re = 4 |m_dot| / (pi D mu)."""

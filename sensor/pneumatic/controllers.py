@@ -162,7 +162,7 @@ def smc_conductance(force_rate_N_s, p1, p2, z, v, q):
 
 
 @njit(cache=True)
-def line_model_step(pc, mc, pv, vnode, h, area, inertance, bore, mu, rt):
+def line_model_step(pc, mc, pv, vnode, h, inertance, bore, mu, rt):
     """One semi-implicit step of the two-volume line model of one side (eqs 54-58):
     flow first (friction implicit), then the chamber node from the new flow.  vnode = (old,
     new) node volume V_c + V_L/2.  Returns (P_c, m_c, f)."""
@@ -419,7 +419,7 @@ class LineModel(_Loop):
             vo = self._node_volumes(self.z_prev)
             for s in range(2):
                 pc, mc, fr[s] = line_model_step(self.state[2 * s], self.state[2 * s + 1], pv[s], (vo[s], vn[s]),
-                                                self.dt, self.area[s], self.inertance[s], self.model.line_bore_m[s],
+                                                self.dt, self.inertance[s], self.model.line_bore_m[s],
                                                 self.model.viscosity_Pa_s, rt)
                 if not (math.isfinite(pc) and 0.0 < pc < 1e8):
                     raise SensorError(f"line-model controller stopped at t = {t:.6g} s: its chamber pressure "

@@ -117,9 +117,6 @@ class CompiledPlant:
     def pressure_slice(self, side: int) -> slice:
         return slice(int(self.off[side, K.O_P]), int(self.off[side, K.O_P]) + self.node_count(side))
 
-    def flow_slice(self, side: int) -> slice:
-        return slice(int(self.off[side, K.O_M]), int(self.off[side, K.O_M]) + self.node_count(side) - 1)
-
     def initial_state(self, pressure_1_Pa: float | None = None, pressure_2_Pa: float | None = None,
                       position_m: float | None = None) -> np.ndarray:
         """State at rest: uniform side pressures (default atmosphere), piston mid-stroke."""

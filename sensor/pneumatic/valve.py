@@ -81,6 +81,12 @@ def _positive(name: str, value: float) -> float:
     return float(value)
 
 
+
+def _check_command(u) -> None:
+    """A valve command must be a finite number in [-1, 1] (the spool's full travel)."""
+    if not (np.isfinite(u) and -1.0 <= u <= 1.0):
+        raise SensorError(f"valve command u = {u!r}: must lie in [-1, 1] (full spool travel)")
+
 @dataclass(frozen=True)
 class Valve:
     """Calibrated four-way spool valve (port 1 table; port 2 uses the mirrored command).
@@ -125,18 +131,21 @@ class Valve:
                 np.asarray(self.exhaust_conductance, float))
 
     def conductances(self, u: float, port: int = 1) -> tuple[float, float]:
-        """(supply, exhaust) sonic conductance of port 1 or 2 at command u (clipped to [-1, 1])."""
+        """(supply, exhaust) sonic conductance of port 1 or 2 at command u in [-1, 1]."""
         if port not in (1, 2):
             raise SensorError(f"valve port = {port!r}: must be 1 or 2")
+        _check_command(u)
         grid, cs, ce = self.arrays()
-        uu = float(np.clip(u, -1.0, 1.0)) * (1.0 if port == 1 else -1.0)
+        uu = float(u) * (1.0 if port == 1 else -1.0)
         return float(np.interp(uu, grid, cs)), float(np.interp(uu, grid, ce))
 
     def mass_flow(self, u: float, supply_Pa: float, port_Pa: float, port: int = 1) -> float:
-        """Net mass flow (kg/s) into port 1 or 2 at command u and port pressure (eqs 14, 88-89)."""
+        """Net mass flow (kg/s) into port 1 or 2 at command u in [-1, 1] and port pressure
+        (eqs 14, 88-89)."""
+        _check_command(u)
         grid, cs, ce = self.arrays()
         sgn = 1.0 if port == 1 else -1.0
-        m, _ = port_flow(sgn * float(np.clip(u, -1, 1)), grid, cs, ce, self.critical_ratio,
+        m, _ = port_flow(sgn * float(u), grid, cs, ce, self.critical_ratio,
                          self.laminar_ratio, float(supply_Pa), float(port_Pa),
                          self.air.atmosphere_Pa, self.k_ref)
         return m

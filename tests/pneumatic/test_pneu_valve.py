@@ -71,3 +71,12 @@ def test_bad_valve_tables(kwargs, word):
     base.update(kwargs)
     with pytest.raises(SensorError, match=word):
         Valve(**base)
+
+
+@pytest.mark.parametrize("u", [1.5, -1.01, float("nan")])
+def test_valve_commands_outside_full_travel_are_errors(u):
+    from sensor.errors import SensorError
+    with pytest.raises(SensorError, match="valve command u"):
+        FESTO_MPYE.mass_flow(u, 6e5, 3e5)
+    with pytest.raises(SensorError, match="valve command u"):
+        FESTO_MPYE.conductances(u)
