@@ -342,9 +342,15 @@ def render_png(body: RenderedBody, path: str | Path, title: str, subtitle: str,
         p.reset_camera()
         p.camera.zoom(1.08)
         _shift_left(p.camera, window_size, BODY_CENTRE_X)
-        img = p.screenshot(str(path), return_img=True)
+        img = p.screenshot(None, return_img=True)
     finally:
         p.close()
     if img is None or img.std() == 0:
         raise SensorError("the off-screen renderer produced a blank picture (is libEGL/Mesa "
                           "installed?)")
+    import imageio.v3 as iio
+
+    from geometry.atomic import atomic_path
+
+    with atomic_path(path) as tmp:  # checked first, written whole: never a blank or partial file
+        iio.imwrite(tmp, img, extension=".png")

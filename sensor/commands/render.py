@@ -50,7 +50,6 @@ def parse_window_size(text: str) -> tuple[int, int]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from geometry.atomic import atomic_path
     from geometry.checks import assert_feasible
     from geometry.errors import ParameterError
     from geometry.layout import make_layout, make_parts
@@ -78,7 +77,6 @@ def run(args: argparse.Namespace) -> int:
     subtitle = (f"displacement scale × {body.scale:g}   (A = {result.amplification:.2f}, "
                 f"SE = {result.strain_energy_mJ:.3g} mJ; grey: undeformed)")
     out.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out) as tmp:
-        render_png(body, tmp, title, subtitle, window)
+    render_png(body, out, title, subtitle, window)
     print(f"wrote {out}")
     return 0
