@@ -9,8 +9,8 @@ Prints the tables and, for each thesis claim, whether the simulation agrees; wri
 import sys
 from pathlib import Path
 
-from sensor.commands.loop import observer_figures
-from sensor.pneumatic.experiments import observer_study, observer_tables
+from sensor.cli.loop import observer_figures
+from sensor.pneumatic.studies import observer_study, observer_tables
 
 
 def verdicts(t: dict) -> list[str]:

@@ -12,8 +12,8 @@ verdict; writes the figures.
 import sys
 from pathlib import Path
 
-from sensor.commands.loop import controller_figures
-from sensor.pneumatic.experiments import CH5_REFERENCES, controller_study, controller_tables
+from sensor.cli.loop import controller_figures
+from sensor.pneumatic.studies import CH5_REFERENCES, controller_study, controller_tables
 
 
 def verdicts(rows: list[dict]) -> list[str]:

@@ -18,8 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from geometry.atomic import save_figure  # noqa: E402
 from geometry.params import MATERIALS, preset  # noqa: E402
-from sensor.hysteresis import TABLE6  # noqa: E402
-from sensor.sensor_model import build_sensor, cross_axis, datasheet, loading_cycle  # noqa: E402
+from sensor.mechanics.hysteresis import TABLE6  # noqa: E402
+from sensor.readout.sensor_model import build_sensor, cross_axis, datasheet, loading_cycle  # noqa: E402
 
 SPECIMENS = ("basis", "sample-a", "sample-b")
 

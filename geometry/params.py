@@ -70,7 +70,7 @@ class Design:
     links' rise above the horizontal (Figure 48). ``hinge_thickness_mm`` holds hinges 1-12
     (9-12 are unused by the basis body). Defaults are documented in DESIGN section 3 and the
     README; ``hinge_length_mm`` is the one effective parameter calibrated on the basis
-    specimen (see ``sensor.calibration``).
+    specimen (see ``sensor.mechanics.table6``).
     """
 
     phi1_deg: float = 22.0

@@ -4,7 +4,7 @@ step_us: mean wall time of one call of the controller callable (observer update,
 the control law) over 20 000 synthetic samples, for the SMC (observer pressures in the law) and
 the line-model controller (line-model update and cascaded law); the larger is reported.
 chapter5_study_s: the whole 4 lengths x 4 references x 2 controllers grid of
-:func:`sensor.pneumatic.experiments.controller_study` (6 s each, 20-segment distributed lines).
+:func:`sensor.pneumatic.studies.controller_study` (6 s each, 20-segment distributed lines).
 One core.  Prints one JSON object.
 """
 import json
@@ -12,7 +12,7 @@ import math
 import os
 import time
 
-from sensor.pneumatic.experiments import Setup, build_plant, controller_study, make_controller
+from sensor.pneumatic.studies import Setup, build_plant, controller_study, make_controller
 from sensor.pneumatic.observer import ObserverModel
 
 

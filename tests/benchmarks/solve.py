@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 
 from geometry.params import make_design, preset  # noqa: E402
 from geometry.topology import build_beam_model  # noqa: E402
-from sensor.solver import SolverOptions, solve, solve_batch  # noqa: E402
+from sensor.mechanics.solver import SolverOptions, solve, solve_batch  # noqa: E402
 
 THESIS_S = 0.5
 

@@ -1,0 +1,172 @@
+"""``dacm sensor``: the datasheet of a design read by the fiber-mirror optics, with plots of
+the intensity curve (like thesis Figure 62) and the calibration loop (Figures 43 and 45)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from pathlib import Path
+
+from sensor.cli.design_args import add_design_arguments, design_from_args
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "sensor", help="sensor datasheet of a design: range, sensitivity, resolution, "
+                       "nonlinearity, hysteresis, cross-axis; intensity and calibration plots",
+        description="Build the sensor model of a design (solved mirror force-travel curve, "
+                    "strain-energy hysteresis law, fiber-mirror optics, noise at the sample "
+                    "rate, ADC), simulate a loading-unloading calibration cycle and print the "
+                    "datasheet. The gap at rest is the design's fiber_clearance_mm; full scale "
+                    "is the force that moves the mirror --full-scale mm towards the fiber. "
+                    "Writes <name>-intensity.png and <name>-calibration.png to --out.")
+    add_design_arguments(p)
+    p.add_argument("--full-scale", type=float, default=1.0, metavar="MM",
+                   help="mirror travel at full scale, mm (default 1; below the fiber clearance)")
+    p.add_argument("--sample-rate", type=float, default=1000.0, metavar="HZ",
+                   help="sample rate, Hz; noise bandwidth is half of it (default 1000)")
+    p.add_argument("--adc-bits", type=int, default=16, metavar="N", help="ADC bits (default 16)")
+    p.add_argument("--adc-range", type=float, nargs=2, default=(-10.0, 10.0),
+                   metavar=("MIN_V", "MAX_V"), help="ADC input range, V (default -10 10)")
+    p.add_argument("--na", type=float, metavar="NA",
+                   help="fiber numerical aperture (default 0.5, see sensor.readout.optics)")
+    p.add_argument("--optics-model", default="geometric", metavar="MODEL",
+                   help="intensity model: geometric | gaussian (default geometric)")
+    p.add_argument("--readout", default="ratio", metavar="KIND",
+                   help="ratio (signal / reference photodiode) | direct (default ratio)")
+    p.add_argument("--calibration", default="curve", metavar="KIND",
+                   help="newtons from volts by the mean-branch curve | the least-squares "
+                        "line, as the thesis (default curve)")
+    p.add_argument("--tolerance", type=float, default=1.0, metavar="PCT",
+                   help="nonlinearity tolerance of the working range shaded on the intensity "
+                        "plot, %% FS (default 1)")
+    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
+                   help="folder for the plots (default ./dacm-out; created if missing)")
+    p.add_argument("--no-plots", action="store_true", help="do not write the plots")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.set_defaults(func=run)
+
+
+def _plot_intensity(sensor, ds, tolerance_pct: float, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from geometry.atomic import save_figure
+    from sensor.readout.optics import linearity, output_voltage, working_range
+
+    model = sensor.readout.model
+    gaps = np.linspace(0.0, 3.0, 301)
+    wr = working_range(sensor.optics, tolerance_pct, model, step_mm=0.01)
+    used = linearity(ds.gap_min_mm, ds.gap_max_mm, sensor.optics, model, step_mm=0.005)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax.plot(gaps, output_voltage(gaps, sensor.optics, model), color="k", lw=1.5,
+            label=f"{model} model, NA {sensor.optics.numerical_aperture:g}, "
+                  f"core {sensor.optics.core_diameter_mm:g} mm")
+    ax.axvspan(wr.gap_lo_mm, wr.gap_hi_mm, color="tab:green", alpha=0.15,
+               label=f"widest within {tolerance_pct:g} % FS: {wr.gap_lo_mm:.2f}-{wr.gap_hi_mm:.2f} mm")
+    for x in (ds.gap_min_mm, ds.gap_max_mm):
+        ax.axvline(x, color="tab:red", ls="--", lw=1)
+    ax.plot([], [], color="tab:red", ls="--",
+            label=f"sensor range {ds.gap_min_mm:.2f}-{ds.gap_max_mm:.2f} mm: "
+                  f"{used.nonlinearity_pct:.1f} % FS nonlinear")
+    ax.set(xlabel="mirror-fiber gap (mm)", ylabel="output voltage (V)",
+           title=f"{sensor.name}: intensity vs gap (cf. thesis Figure 62)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def _plot_calibration(sensor, ds, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from geometry.atomic import save_figure
+    from sensor.readout.sensor_model import loading_cycle
+
+    cal = sensor.calibration
+    n = len(cal.force_table)
+    forces = loading_cycle(sensor.range_N, n)
+    r = sensor.read(forces)
+    fig, (ax, ax_err) = plt.subplots(1, 2, figsize=(10, 4.2))
+    ax.plot(r.force_N[:n], r.volts[:n], color="tab:blue", label="loading")
+    ax.plot(r.force_N[n - 1:], r.volts[n - 1:], color="tab:red", label="unloading")
+    f = np.array([0.0, sensor.range_N])
+    ax.plot(f, (f - cal.intercept_N) / cal.slope_N_per_V, "k--", lw=1,
+            label=f"least squares: {ds.sensitivity_mV_per_N:.1f} mV/N")
+    ax.set(xlabel="applied force (N)", ylabel="sensor output (V)",
+           title=f"{sensor.name}: calibration (cf. thesis Figures 43, 45)")
+    ax.text(0.97, 0.05, f"hysteresis {ds.hysteresis_pct:.2f} % FS\n"
+                        f"nonlinearity {ds.nonlinearity_pct:.1f} % FS",
+            transform=ax.transAxes, ha="right", va="bottom", fontsize=9)
+    ax.legend(fontsize=8, loc="upper left")
+    err = 1e3 * (r.newtons - r.force_N)
+    ax_err.plot(r.force_N[:n], err[:n], color="tab:blue", label="loading")
+    ax_err.plot(r.force_N[n - 1:], err[n - 1:], color="tab:red", label="unloading")
+    ax_err.axhline(0.0, color="k", lw=0.6)
+    ax_err.set(xlabel="applied force (N)", ylabel="reading - applied (mN)",
+               title=f"reading error ({cal.method} calibration, {ds.adc_bits}-bit ADC)")
+    ax_err.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def run(args: argparse.Namespace) -> int:
+    from geometry.checks import assert_feasible
+    from geometry.errors import ParameterError
+    from sensor.readout.optics import OpticsSetup
+    from sensor.readout.sensor_model import (CALIBRATIONS, Readout, build_sensor, cross_axis,
+                                     datasheet)
+
+    design = design_from_args(args)
+    assert_feasible(design)
+    if args.calibration not in CALIBRATIONS:
+        raise ParameterError(f"--calibration = {args.calibration!r}: must be one of "
+                             f"{', '.join(CALIBRATIONS)}")
+    optics = OpticsSetup() if args.na is None else OpticsSetup(numerical_aperture=args.na)
+    readout = Readout(sample_rate_Hz=args.sample_rate, adc_bits=args.adc_bits,
+                      adc_min_V=args.adc_range[0], adc_max_V=args.adc_range[1],
+                      readout=args.readout, model=args.optics_model)
+    if not args.tolerance > 0:
+        raise ParameterError(f"--tolerance = {args.tolerance!r}: must be a positive number (%)")
+    sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
+                          calibration=args.calibration)
+    ds = datasheet(sensor, material=design.material.name)
+    cross = cross_axis(design, sensor.input_travel_mm)
+    files = []
+    if not args.no_plots:
+        args.out.mkdir(parents=True, exist_ok=True)
+        files = [args.out / f"{design.name}-intensity.png", args.out / f"{design.name}-calibration.png"]
+        _plot_intensity(sensor, ds, args.tolerance, files[0])
+        _plot_calibration(sensor, ds, files[1])
+    if args.json:
+        print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
+                          "files": [str(f) for f in files]}, indent=1))
+        return 0
+    rows = [
+        ("range", f"0 - {ds.range_N:.3f} N  (mirror travel {ds.full_scale_travel_mm:g} mm, "
+                  f"gap {ds.gap_max_mm:.2f} -> {ds.gap_min_mm:.2f} mm)"),
+        ("output span", f"{ds.span_V:.4f} V"),
+        ("sensitivity", f"{ds.sensitivity_mV_per_N:.2f} mV/N  (least-squares line)"),
+        ("resolution", f"{ds.resolution_N * 1e3:.3f} mN RMS  (noise {ds.noise_rms_V * 1e6:.2f} uV "
+                       f"RMS at {ds.sample_rate_Hz:g} S/s, ADC step {ds.adc_step_V * 1e6:.0f} uV)"),
+        ("nonlinearity", f"{ds.nonlinearity_pct:.2f} % FS  (mean branch against the line)"),
+        ("hysteresis", f"{ds.hysteresis_pct:.2f} % FS  (eq 87 on volts; mechanical H "
+                       f"{ds.hysteresis_mechanical_pct:.2f} % from SE {ds.strain_energy_mJ:.3f} mJ)"),
+        ("quality", f"{ds.quality_mV_per_N:.0f} mV/N per unit hysteresis"),
+        ("cross-axis", f"{cross.ratio_pct:.3f} %  (mirror travel for {cross.imposed_travel_mm:.3f} mm "
+                       f"lateral vs axial input travel; tilt {cross.tilt_deg:+.2f} deg; "
+                       "thesis 1.66 % delrin)"),
+    ]
+    print(f"{design.name} ({design.material.name})")
+    for k, v in rows:
+        print(f"  {k:<14} {v}")
+    for f in files:
+        print(f"wrote {f}")
+    return 0

@@ -1,0 +1,92 @@
+"""``dacm solve``: the nonlinear chain-algorithm solve of one design or beam model."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from sensor.cli.design_args import add_design_arguments, design_from_args
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "solve", help="solve a design: amplification, k_out, strain energy, hysteresis, quality",
+        description="Solve a design (or a JSON beam model) with the iterative nonlinear "
+                    "Castigliano chain algorithm to an output travel (default 1 mm) and report "
+                    "amplification, output stiffness, sensitivity, strain energy, predicted "
+                    "hysteresis (strain-energy law calibrated on the basis specimen) and quality.")
+    add_design_arguments(p)
+    p.add_argument("--model", type=Path, metavar="JSON",
+                   help="solve a beam model written by `dacm export --json` (or any model of "
+                        "that schema) instead of a design")
+    p.add_argument("--target-output", type=float, metavar="MM",
+                   help="stop when the output port has travelled MM (default 1)")
+    p.add_argument("--target-force", type=float, metavar="N",
+                   help="stop when the input force reaches N instead")
+    p.add_argument("--increments", type=int, default=8, metavar="N",
+                   help="load increments (default 8; Newton corrections make the result "
+                        "independent of it)")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from geometry.checks import assert_feasible
+    from geometry.errors import ParameterError
+    from geometry.layout import kinematic_amplification
+    from geometry.topology import build_beam_model, load_model
+    from sensor.mechanics.hysteresis import DEFAULT_LAW
+    from sensor.mechanics.solver import SolverOptions, solve
+
+    if args.increments < 1:
+        raise ParameterError(f"--increments = {args.increments}: must be at least 1")
+    if args.model is not None:
+        shape = [f for f in ("design", "phi1", "phi2", "hinges", "preset", "config")
+                 if getattr(args, f) is not None]
+        if shape:
+            raise ParameterError(f"--model cannot be combined with --{shape[0]}")
+        model, name, a_kin = load_model(args.model), args.model.stem, None
+    else:
+        design = design_from_args(args)
+        assert_feasible(design)
+        model, name = build_beam_model(design), design.name
+        a_kin = kinematic_amplification(design.phi1_deg, design.phi2_deg)
+    r = solve(model, target_output_mm=args.target_output, target_force_N=args.target_force,
+              options=SolverOptions(increments=args.increments))
+    h = float(DEFAULT_LAW.predict(r.strain_energy_mJ))
+    out = {
+        "design": name,
+        "amplification": r.amplification,
+        "A_kin": a_kin,
+        "k_out_N_per_mm": r.k_out_N_per_mm,
+        "sensitivity_mm_per_N": r.sensitivity_mm_per_N,
+        "strain_energy_mJ": r.strain_energy_mJ,
+        "input_force_N": r.input_force_N,
+        "input_travel_mm": r.input_travel_mm,
+        "output_travel_mm": r.output_travel_mm,
+        "hysteresis_predicted": h,
+        "quality_mm_per_N": r.sensitivity_mm_per_N / h,
+        "increments": r.increments,
+        "residual": r.residual,
+        "converged": r.converged,
+        "hinge_rotation_deg": {str(k): v for k, v in r.hinge_rotation_deg.items()},
+    }
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return 0
+    rows = [("amplification A", f"{r.amplification:.4f}" + (f"   (A_kin {a_kin:.4f})" if a_kin else "")),
+            ("output stiffness k_out", f"{r.k_out_N_per_mm:.4f} N/mm"),
+            ("sensitivity", f"{r.sensitivity_mm_per_N:.4f} mm/N"),
+            ("strain energy SE", f"{r.strain_energy_mJ:.4f} mJ"),
+            ("input force / travel", f"{r.input_force_N:.4f} N / {r.input_travel_mm:.4f} mm"),
+            ("output travel", f"{r.output_travel_mm:.4f} mm"),
+            ("predicted hysteresis H", f"{h:.4f}  ({DEFAULT_LAW.h_per_mJ:.4f} per mJ, "
+                                       f"calibrated on the {DEFAULT_LAW.calibrated_on} specimen)"),
+            ("quality sensitivity / H", f"{r.sensitivity_mm_per_N / h:.3f} mm/N"),
+            ("increments / residual", f"{r.increments} / {r.residual:.1e} (converged)"),
+            ("hinge rotations", ", ".join(f"{k}: {v:+.2f}" for k, v in r.hinge_rotation_deg.items()) + " deg")]
+    print(f"{name}")
+    for k, v in rows:
+        print(f"  {k:<26} {v}")
+    return 0

@@ -1,0 +1,517 @@
+"""The sensor model: a force history in, what the sensor reads out (volts, ADC codes, newtons).
+
+The chain (DESIGN section 7; thesis sections 6.1.3 and 6.2, Appendix D), one sample at a time:
+
+1. Mechanics: the mirror's travel x_e(F) against the input force, solved once with the chain
+   solver up to the full-scale travel X_fs (``increments`` points, uniform in travel) and
+   interpolated with a monotone (PCHIP) spline. The force at X_fs is the range F_fs.
+2. Hysteresis, rate independent: x = x_e(F) + X_fs h(s), s = F / F_fs. h is a Preisach model
+   with a uniform weight mu on the triangle 0 <= beta <= alpha <= 1: every branch is a
+   parabola from its last turning point, P = -mu/2 + mu sum_j (+/-)(p_j - p_(j-1))^2 over
+   the turning points p_j still in memory (rising segments +, falling -, a reversal is wiped
+   out once the input passes the older extremum), and h = P - mu (s - 1/2). The full-range
+   loop 0 -> F_fs -> 0 has h = -mu s(1-s) loading and +mu s(1-s) unloading: the unloading
+   branch lags (reads more travel), both close at the ends, and max(delta x) / X_fs = mu / 2
+   (eq 87). mu = 2 H, with H from the strain-energy law (:mod:`sensor.mechanics.hysteresis`) at the
+   full-scale strain energy. Minor loops close; a reversal over a fraction d of the range
+   leaves a loop H d^2 high, so small force jitter adds almost no hysteresis.
+3. Optics: gap = fiber_clearance_mm - x; V(gap) from :func:`sensor.readout.optics.output_voltage`,
+   tabulated on a gap grid and interpolated with a cubic spline.
+4. Noise: white Gaussian, RMS :func:`sensor.readout.noise.noise_rms_V` at the current gap over the
+   bandwidth f_s / 2 (ideal anti-alias filter), one standard normal per sample drawn from
+   the caller's ``numpy.random.Generator`` (no generator: noise-free).
+5. ADC: ``adc_bits`` over [adc_min_V, adc_max_V], rounding to the nearest code.
+6. Calibration: a simulated loading-unloading cycle gives the least-squares line F = a + b V
+   (as thesis Figures 43 and 45: sensitivity and nonlinearity) and the mean branch through
+   the middle of the loop, read back with a monotone spline (see :class:`Calibration`).
+
+Forces outside [0, F_fs] (the sensor is compression-only; beyond F_fs the mirror heads for
+the fiber) raise :class:`SensorRangeError` with ``overload="raise"`` (default) or are clipped
+to the range and flagged ``saturated`` with ``overload="saturate"``; NaN always raises.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline, PchipInterpolator
+
+from geometry.params import Design
+from geometry.topology import build_beam_model
+from sensor.errors import SensorError
+from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw, hysteresis
+from sensor.readout.noise import READOUTS, noise_rms_V
+from sensor.readout.optics import MODELS, OpticsSetup, output_voltage
+from sensor.mechanics.solver import SolverError, SolverOptions, solve
+
+OVERLOADS = ("raise", "saturate")
+GAP_TABLE_POINTS = 241  # cubic spline of V(gap): error < 1e-6 V, under 1/300 of a 16-bit code
+
+
+class SensorRangeError(SensorError):
+    """A force the sensor cannot read (NaN, negative, beyond range) or a setup it cannot hold."""
+
+
+def _require(ok: bool, name: str, value, rule: str) -> None:
+    if not ok:
+        raise SensorError(f"{name} = {value!r}: must be {rule}")
+
+
+def _real(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+@dataclass(frozen=True)
+class Readout:
+    """Acquisition: sample rate, ADC and which optics/noise model to use.
+
+    sample_rate_Hz: 1 kHz; the noise bandwidth is f_s / 2.
+    adc_bits, adc_min_V, adc_max_V: NI USB-6221 (thesis 6.1.3.2): 16 bits on +/-10 V,
+        a 305 uV step.
+    readout: "ratio" (signal / reference photodiode, cancels source drift) or "direct".
+    model: intensity model of :mod:`sensor.readout.optics`, "geometric" or "gaussian".
+    """
+
+    sample_rate_Hz: float = 1000.0
+    adc_bits: int = 16
+    adc_min_V: float = -10.0
+    adc_max_V: float = 10.0
+    readout: str = "ratio"
+    model: str = "geometric"
+
+    def __post_init__(self) -> None:
+        _require(_real(self.sample_rate_Hz) and self.sample_rate_Hz > 0, "sample_rate_Hz",
+                 self.sample_rate_Hz, "a finite number > 0 (Hz)")
+        _require(isinstance(self.adc_bits, (int, np.integer)) and not isinstance(self.adc_bits, bool)
+                 and 1 <= self.adc_bits <= 32, "adc_bits", self.adc_bits, "an integer in 1..32")
+        for name in ("adc_min_V", "adc_max_V"):
+            _require(_real(getattr(self, name)), name, getattr(self, name), "a finite number (V)")
+        _require(self.adc_max_V > self.adc_min_V, "adc_max_V", self.adc_max_V,
+                 f"> adc_min_V = {self.adc_min_V!r}")
+        _require(self.readout in READOUTS, "readout", self.readout, f"one of {READOUTS}")
+        _require(self.model in MODELS, "model", self.model, f"one of {MODELS}")
+
+    @property
+    def adc_step_V(self) -> float:
+        """One ADC code, V."""
+        return (self.adc_max_V - self.adc_min_V) / 2**self.adc_bits
+
+    @property
+    def bandwidth_Hz(self) -> float:
+        """Noise bandwidth of one sample, Hz (Nyquist)."""
+        return self.sample_rate_Hz / 2.0
+
+
+CALIBRATIONS = ("curve", "linear")
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """Volts back to newtons, from one simulated loading-unloading cycle.
+
+    ``intercept_N``, ``slope_N_per_V``: the least-squares line F = a + b V over both
+    branches (thesis Figures 43 and 45); its slope gives the datasheet sensitivity.
+    ``volts_table``, ``force_table``: the mean of the loading and unloading branches at each
+    force (the line through the middle of the loop). ``method`` "curve" (default) reads
+    newtons with a monotone spline through that table, so only hysteresis (+/- half the loop)
+    and resolution remain; "linear" reads with the line, as the thesis did, adding the
+    nonlinearity (tens of % FS with a single-fiber readout) to the error.
+    """
+
+    intercept_N: float
+    slope_N_per_V: float
+    volts_table: np.ndarray
+    force_table: np.ndarray
+    method: str = "curve"
+
+    def __post_init__(self) -> None:
+        _require(self.method in CALIBRATIONS, "calibration", self.method, f"one of {CALIBRATIONS}")
+        object.__setattr__(self, "_curve", PchipInterpolator(self.volts_table, self.force_table))
+
+    def force_N(self, volts):
+        """Calibrated force, N, of a voltage (V; scalar or array)."""
+        v = np.asarray(volts, dtype=float)
+        if self.method == "linear":
+            return self.intercept_N + self.slope_N_per_V * v
+        return self._curve(v)
+
+
+@dataclass(frozen=True)
+class Readings:
+    """What the sensor read, one element per sample.
+
+    force_N: the force applied (after clipping, with ``overload="saturate"``); travel_mm:
+    mirror travel (with hysteresis); gap_mm: fiber-mirror gap; volts: ADC output (noisy,
+    quantised), V; counts: ADC codes; newtons: calibrated reading, N; saturated: the force
+    was clipped to the range or the ADC clipped.
+    """
+
+    force_N: np.ndarray
+    travel_mm: np.ndarray
+    gap_mm: np.ndarray
+    volts: np.ndarray
+    counts: np.ndarray
+    newtons: np.ndarray
+    saturated: np.ndarray
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One sample of :class:`Readings` (floats, an int code and a bool)."""
+
+    force_N: float
+    travel_mm: float
+    gap_mm: float
+    volts: float
+    counts: int
+    newtons: float
+    saturated: bool
+
+
+# --- hysteresis: Preisach model with a uniform weight -----------------------------------------
+
+#: Memory of a virgin (never loaded) body: turning points (0,) and the current input 0.
+VIRGIN = (0.0, 0.0)
+
+
+def preisach_update(state: tuple[float, ...], s: float) -> tuple[float, ...]:
+    """New memory after the normalised input moves to ``s`` (0..1).
+
+    ``state`` = (p_0 = 0, p_1, ..., p_k, u): alternating turning points (minima at even
+    index, maxima at odd) and the current input u. A reversal pushes u; passing the older
+    extremum of the last pair wipes that pair out (Preisach wiping-out property).
+    """
+    *pts, u = state
+    if s == u:
+        return state
+    rising = s > u
+    if rising != (len(pts) % 2 == 1):           # the last segment ran the other way
+        pts.append(u)
+    while len(pts) >= 3 and (s >= pts[-2] if rising else s <= pts[-2]):
+        del pts[-2:]
+    if len(pts) == 2 and s <= pts[0]:           # back down to the unloaded state
+        del pts[1:]
+    return (*pts, s)
+
+
+def preisach_offset(state: tuple[float, ...], mu: float) -> float:
+    """h = P - mu (u - 1/2), fraction of full-scale travel, of a memory state."""
+    total = -0.5 * mu
+    for j in range(1, len(state)):
+        d = state[j] - state[j - 1]
+        total += mu * d * d if j % 2 == 1 else -mu * d * d
+    return total - mu * (state[-1] - 0.5)
+
+
+# --- the transducer: force -> volts --------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Transducer:
+    """Force to volts: a solved design, its optics, hysteresis, noise and ADC (no calibration)."""
+
+    name: str
+    range_N: float                 # force at full-scale travel, N
+    full_scale_travel_mm: float    # mirror travel at range_N, mm
+    fiber_clearance_mm: float      # fiber-mirror gap at rest, mm
+    input_travel_mm: float         # input (top plate) travel at range_N, mm
+    strain_energy_mJ: float        # at full scale
+    hysteresis: float              # H (fraction of full scale) of the full-range loop
+    optics: OpticsSetup
+    readout: Readout
+    overload: str
+    curve_force_N: np.ndarray      # solved mirror force-travel curve
+    curve_travel_mm: np.ndarray
+    travel_spline: PchipInterpolator
+    volts_spline: CubicSpline      # noise-free V(gap)
+    noise_spline: CubicSpline      # RMS noise (V) against gap at the sample rate
+
+    @property
+    def gap_range_mm(self) -> tuple[float, float]:
+        """(smallest, largest) gap over the range, mm."""
+        return self.fiber_clearance_mm - self.full_scale_travel_mm, self.fiber_clearance_mm
+
+    def noise_free_volts(self, travel_mm) -> np.ndarray:
+        """Noise-free, unquantised output, V, at mirror travel(s) in mm."""
+        return self.volts_spline(self.fiber_clearance_mm - np.asarray(travel_mm, dtype=float))
+
+
+@dataclass(frozen=True, eq=False)
+class SensorModel(Transducer):
+    """One sensor: a :class:`Transducer` and its calibration back to newtons.
+
+    Build with :func:`build_sensor`. ``read(forces)`` reads a whole force history,
+    ``stepper()`` gives an object that reads it sample by sample with identical results.
+    """
+
+    calibration: Calibration
+
+    def read(self, forces_N, rng: np.random.Generator | None = None,
+             state: tuple[float, ...] = VIRGIN) -> Readings:
+        """Read a force history (N, 1-D, in time order) from memory ``state`` (unloaded)."""
+        return _read(self, forces_N, rng, state)[0]
+
+    def stepper(self, rng: np.random.Generator | None = None) -> "SensorStepper":
+        """A sample-by-sample reader starting unloaded."""
+        return SensorStepper(self, rng)
+
+
+class SensorStepper:
+    """Reads one force sample at a time; holds the hysteresis memory (turning points)."""
+
+    def __init__(self, sensor: SensorModel, rng: np.random.Generator | None = None):
+        self.sensor, self.rng, self.state = sensor, rng, VIRGIN
+
+    def step(self, force_N: float) -> Reading:
+        """Read one force sample (N); advances the memory only if the sample is accepted."""
+        r, self.state = _read(self.sensor, np.array([force_N], dtype=float), self.rng, self.state)
+        return Reading(float(r.force_N[0]), float(r.travel_mm[0]), float(r.gap_mm[0]),
+                       float(r.volts[0]), int(r.counts[0]), float(r.newtons[0]),
+                       bool(r.saturated[0]))
+
+
+def _checked_forces(forces_N, range_N: float, overload: str) -> tuple[np.ndarray, np.ndarray]:
+    """(forces within [0, range_N], clipped mask) or SensorRangeError."""
+    f = np.asarray(forces_N, dtype=float)
+    if f.ndim != 1:
+        raise SensorRangeError(f"forces_N has shape {f.shape}: must be a 1-D force history")
+    bad = np.flatnonzero(~np.isfinite(f))
+    if len(bad):
+        raise SensorRangeError(f"force_N[{bad[0]}] = {float(f[bad[0]])!r}: must be a finite number (N)")
+    out = (f < 0.0) | (f > range_N)
+    if overload == "raise" and out.any():
+        i = int(np.flatnonzero(out)[0])
+        raise SensorRangeError(
+            f"force_N[{i}] = {f[i]:.6g}: must lie in the range [0, {range_N:.6g}] N "
+            "(compression only, up to full-scale mirror travel; use overload='saturate' "
+            "to clip and flag instead)")
+    return np.clip(f, 0.0, range_N), out
+
+
+def _analog(sensor: Transducer, forces_N, rng, state):
+    """Force history -> (forces, travel, gap, analog volts, clipped), final memory state."""
+    if rng is not None and not isinstance(rng, np.random.Generator):
+        raise SensorError(f"rng = {rng!r}: must be a numpy.random.Generator or None")
+    f, clipped = _checked_forces(forces_N, sensor.range_N, sensor.overload)
+    s = f / sensor.range_N
+    mu = 2.0 * sensor.hysteresis
+    h = np.empty_like(s)
+    for i, si in enumerate(s):
+        state = preisach_update(state, float(si))
+        h[i] = preisach_offset(state, mu)
+    travel = sensor.travel_spline(f) + sensor.full_scale_travel_mm * h
+    gap = sensor.fiber_clearance_mm - travel
+    if (gap <= 0).any():
+        i = int(np.flatnonzero(gap <= 0)[0])
+        raise SensorRangeError(f"force_N[{i}] = {f[i]:.6g}: the mirror would touch the fiber "
+                               f"(gap {gap[i]:.4g} mm)")
+    volts = sensor.volts_spline(gap)
+    if rng is not None:
+        volts = volts + sensor.noise_spline(gap) * rng.standard_normal(len(f))
+    return (f, travel, gap, volts, clipped), state
+
+
+def _quantise(ro: Readout, volts: np.ndarray):
+    """(ADC volts, codes, clipped) of analog volts: nearest code, clipped to the ADC range."""
+    top = 2**ro.adc_bits - 1
+    codes = np.rint((volts - ro.adc_min_V) / ro.adc_step_V)
+    clipped = (codes < 0) | (codes > top)
+    codes = np.clip(codes, 0, top).astype(np.int64)
+    return ro.adc_min_V + codes * ro.adc_step_V, codes, clipped
+
+
+def _read(sensor: SensorModel, forces_N, rng, state):
+    """The whole chain and the calibration; returns (Readings, final memory state)."""
+    (f, travel, gap, analog, clipped), state = _analog(sensor, forces_N, rng, state)
+    volts, codes, adc_clipped = _quantise(sensor.readout, analog)
+    return Readings(f, travel, gap, volts, codes, sensor.calibration.force_N(volts),
+                    clipped | adc_clipped), state
+
+
+# --- building and calibrating ------------------------------------------------------------
+
+def loading_cycle(range_N: float, points: int = 201) -> np.ndarray:
+    """Forces of one loading-unloading cycle 0 -> range_N -> 0, ``points`` per branch, N."""
+    _require(isinstance(points, int) and points >= 3, "points", points, "an integer >= 3")
+    up = np.linspace(0.0, range_N, points)
+    return np.concatenate([up, up[-2::-1]])
+
+
+def fit_calibration(forces_N, volts, method: str = "curve") -> Calibration:
+    """Calibration from one loading-unloading cycle of :func:`loading_cycle` (forces, N, and
+    the volts read): the least-squares line over both branches, and the mean branch."""
+    f, v = np.asarray(forces_N, dtype=float), np.asarray(volts, dtype=float)
+    n = (len(f) + 1) // 2
+    a, b = np.polynomial.polynomial.polyfit(v, f, 1)
+    mid = 0.5 * (v[:n] + v[n - 1:][::-1])
+    if np.any(np.diff(mid) <= 0):
+        raise SensorError("the calibration cycle's volts do not rise with the force at every "
+                          "point: the sensor's output is not monotone over its range")
+    return Calibration(float(a), float(b), mid, f[:n].copy(), method)
+
+
+def build_sensor(design: Design, optics: OpticsSetup = OpticsSetup(), readout: Readout = Readout(),
+                 law: StrainEnergyLaw = DEFAULT_LAW, full_scale_travel_mm: float = 1.0,
+                 overload: str = "raise", increments: int = 20,
+                 calibration: str = "curve", calibration_points: int = 201) -> SensorModel:
+    """Solve a design once and assemble its sensor model.
+
+    The calibration is fitted to one loading-unloading cycle of ``calibration_points`` per
+    branch read noise-free and before the ADC: the ideal of a bench calibration averaging
+    many samples, so what remains in a reading is hysteresis, noise and quantisation.
+
+    ``full_scale_travel_mm``: mirror travel at full scale (default 1 mm, the thesis' design
+    travel and its 1 mm wide linear interval); it must stay below the design's
+    ``fiber_clearance_mm`` (the gap at rest) so the mirror never touches the fiber.
+    ``calibration``: "curve" or "linear" (see :class:`Calibration`).
+    """
+    _require(_real(full_scale_travel_mm) and 0 < full_scale_travel_mm < design.fiber_clearance_mm,
+             "full_scale_travel_mm", full_scale_travel_mm,
+             f"in (0, fiber_clearance_mm = {design.fiber_clearance_mm:g}) mm: the mirror must not "
+             "touch the fiber")
+    _require(overload in OVERLOADS, "overload", overload, f"one of {OVERLOADS}")
+    _require(isinstance(increments, int) and increments >= 4, "increments", increments,
+             "an integer >= 4")
+    r = solve(build_beam_model(design), target_output_mm=full_scale_travel_mm,
+              options=SolverOptions(increments=increments))
+    H = float(law.predict(r.strain_energy_mJ))
+    _require(0 <= H < 0.5, "predicted hysteresis", H,
+             "in [0, 0.5) for this hysteresis model (a very high strain energy)")
+    # Gap table: from (almost) touching to beyond rest, covering every hysteretic excursion.
+    clearance = design.fiber_clearance_mm
+    gaps = np.linspace(0.0, clearance + 2 * H * full_scale_travel_mm, GAP_TABLE_POINTS)
+    volts = output_voltage(gaps, optics, readout.model)
+    noise = noise_rms_V(optics, readout.bandwidth_Hz, gaps, readout.model, readout.readout)
+    t = Transducer(
+        name=design.name, range_N=r.input_force_N, full_scale_travel_mm=float(full_scale_travel_mm),
+        fiber_clearance_mm=clearance, input_travel_mm=r.input_travel_mm,
+        strain_energy_mJ=r.strain_energy_mJ, hysteresis=H, optics=optics, readout=readout,
+        overload=overload, curve_force_N=r.force_N, curve_travel_mm=r.output_mm,
+        travel_spline=PchipInterpolator(r.force_N, r.output_mm),
+        volts_spline=CubicSpline(gaps, volts), noise_spline=CubicSpline(gaps, noise))
+    span = t.noise_free_volts([0.0, full_scale_travel_mm])
+    if min(span) < readout.adc_min_V or max(span) > readout.adc_max_V - readout.adc_step_V:
+        raise SensorRangeError(f"output {min(span):.4g}..{max(span):.4g} V over the range: must "
+                               f"fit the ADC range [{readout.adc_min_V:g}, {readout.adc_max_V:g}] V "
+                               "(change the gain or the ADC range)")
+    forces = loading_cycle(t.range_N, calibration_points)
+    volts_read = _analog(t, forces, None, VIRGIN)[0][3]
+    fields = {f.name: getattr(t, f.name) for f in dataclasses.fields(Transducer)}
+    return SensorModel(**fields, calibration=fit_calibration(forces, volts_read, calibration))
+
+
+# --- datasheet -----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Datasheet:
+    """What a sensor's datasheet states (one calibration cycle, see :func:`datasheet`)."""
+
+    name: str
+    range_N: float
+    full_scale_travel_mm: float
+    gap_min_mm: float
+    gap_max_mm: float
+    span_V: float
+    sensitivity_mV_per_N: float       # 1 / calibration slope
+    resolution_N: float               # RMS, noise and quantisation, worst over the range
+    nonlinearity_pct: float           # % FS
+    hysteresis_pct: float             # % FS, eq 87 on volts against force
+    hysteresis_mechanical_pct: float  # H given to the model (strain-energy law)
+    quality_mV_per_N: float           # sensitivity / (hysteresis_pct / 100)
+    noise_rms_V: float                # largest over the range, at the sample rate, V
+    adc_step_V: float
+    sample_rate_Hz: float
+    adc_bits: int
+    strain_energy_mJ: float
+    material: str
+
+
+def datasheet(sensor: SensorModel, material: str = "") -> Datasheet:
+    """Simulate the noise-free calibration cycle again and state the sensor's figures.
+
+    sensitivity: 1 / b of the least-squares line F = a + b V. nonlinearity_pct: largest
+    |a + b V_mid - F| / range_N, V_mid the mean of the loading and unloading branches at each
+    force (hysteresis is stated separately). hysteresis_pct: eq 87, max |V_unload - V_load| /
+    V span. resolution_N: RMS, the worst over the range of |dF/dV| sqrt(sigma^2 + q^2 / 12),
+    dF/dV the slope of the calibration in use, sigma the RMS noise at the sample rate, q the
+    ADC step (uniform quantisation error).
+    """
+    cal = sensor.calibration
+    forces = loading_cycle(sensor.range_N, len(cal.force_table))
+    volts = _analog(sensor, forces, None, VIRGIN)[0][3]
+    nonlin = np.max(np.abs(cal.intercept_N + cal.slope_N_per_V * cal.volts_table
+                           - cal.force_table)) / sensor.range_N
+    gaps = sensor.fiber_clearance_mm - sensor.travel_spline(cal.force_table)
+    sigma = sensor.noise_spline(gaps)
+    q = sensor.readout.adc_step_V
+    slope = (np.full_like(gaps, cal.slope_N_per_V) if cal.method == "linear"
+             else cal._curve.derivative()(cal.volts_table))
+    hyst = hysteresis(forces, volts)
+    sens = 1e3 / cal.slope_N_per_V
+    lo, hi = sensor.gap_range_mm
+    return Datasheet(
+        name=sensor.name, range_N=sensor.range_N, full_scale_travel_mm=sensor.full_scale_travel_mm,
+        gap_min_mm=lo, gap_max_mm=hi, span_V=float(np.ptp(volts)), sensitivity_mV_per_N=sens,
+        resolution_N=float(np.max(np.abs(slope) * np.sqrt(sigma**2 + q**2 / 12.0))),
+        nonlinearity_pct=100.0 * float(nonlin), hysteresis_pct=100.0 * hyst,
+        hysteresis_mechanical_pct=100.0 * sensor.hysteresis, quality_mV_per_N=sens / hyst if hyst > 0 else math.inf,
+        noise_rms_V=float(np.max(sigma)), adc_step_V=q,
+        sample_rate_Hz=sensor.readout.sample_rate_Hz, adc_bits=int(sensor.readout.adc_bits),
+        strain_energy_mJ=sensor.strain_energy_mJ, material=material)
+
+
+# --- cross-axis sensitivity ----------------------------------------------------------------
+
+@dataclass(frozen=True)
+class CrossAxis:
+    """Mirror travel along the sensing axis under an imposed lateral vs axial input travel.
+
+    ratio_pct = 100 max(|lateral +x|, |lateral -x|) / axial (the thesis' "variation in the
+    lateral loading case as % of the axial", 1.66 % delrin, 3.29 % ABS). tilt_deg: mirror
+    rotation under the lateral travel (the intensity model ignores tilt).
+    """
+
+    imposed_travel_mm: float
+    axial_mirror_travel_mm: float
+    lateral_mirror_travel_mm: tuple[float, float]   # for +x and -x
+    ratio_pct: float
+    lateral_force_N: float
+    axial_force_N: float
+    tilt_deg: float
+
+
+def cross_axis(design: Design, imposed_travel_mm: float) -> CrossAxis:
+    """Impose the same input (top plate) travel laterally (+x, -x) and axially; compare the
+    mirror's travel along the sensing axis.
+
+    A lateral force meets the body's compliant shear mode, so the lateral travel is imposed
+    (displacement control of the input node), like the thesis' XY-stage. Pass the sensor's
+    full-scale input travel to stay within range (amplifying bodies reach the fiber long
+    before 1 mm of input travel).
+    """
+    _require(_real(imposed_travel_mm) and imposed_travel_mm > 0, "imposed_travel_mm",
+             imposed_travel_mm, "a finite number > 0 (mm)")
+    guided = build_beam_model(design)                     # axial: the stage guides the input
+    free = build_beam_model(design, input_guided=False)   # lateral: the stage drives it sideways
+    mirror, axis = guided.output_node, np.asarray(guided.output_direction, dtype=float)
+
+    def drive(direction):
+        model = guided if direction[0] == 0 else free
+        driven = dataclasses.replace(model, input_direction=np.array(direction, dtype=float),
+                                     output_node=model.input_node,
+                                     output_direction=np.array(direction, dtype=float))
+        try:
+            r = solve(driven, target_output_mm=imposed_travel_mm, options=SolverOptions(increments=8))
+        except SolverError as exc:
+            raise SensorError(f"imposed_travel_mm = {imposed_travel_mm!r}: the body cannot be "
+                              f"driven that far along {direction}: {exc}") from None
+        travel = float((r.deformed_nodes[mirror] - model.nodes[mirror]) @ axis)
+        return travel, r.input_force_N, float(np.degrees(r.node_rotation_rad[mirror]))
+
+    axial, f_ax, _ = drive(tuple(guided.input_direction))
+    plus, f_lat, tilt = drive((1.0, 0.0))
+    minus, _, _ = drive((-1.0, 0.0))
+    return CrossAxis(float(imposed_travel_mm), axial, (plus, minus),
+                     100.0 * max(abs(plus), abs(minus)) / abs(axial), f_lat, f_ax, tilt)
