@@ -22,8 +22,13 @@ import numpy as np  # noqa: E402
 
 from geometry.atomic import save_figure  # noqa: E402
 from sensor.readout.noise import gap_resolution_mm, noise_rms_V  # noqa: E402
-from sensor.readout.optics import (MODELS, OpticsSetup, linearity, output_voltage,  # noqa: E402
-                           working_range)
+from sensor.readout.optics import (  # noqa: E402
+    MODELS,
+    OpticsSetup,
+    linearity,
+    output_voltage,
+    working_range,
+)
 
 THESIS_INTERVALS = ((0.2, 1.2), (0.1, 1.5))
 COLORS = {"geometric": "tab:blue", "gaussian": "tab:orange"}

@@ -20,8 +20,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 from geometry.atomic import save_figure  # noqa: E402
 from sensor.pneumatic.air import AIR  # noqa: E402
 from sensor.pneumatic.cylinder import FixedChambers  # noqa: E402
-from sensor.pneumatic.lines import (DeadVolume, Distributed, RicherHurmuzlu, TwoVolume,  # noqa: E402
-                                    attenuation_factor, tube_resistance)
+from sensor.pneumatic.lines import (  # noqa: E402
+    DeadVolume,
+    Distributed,
+    RicherHurmuzlu,
+    TwoVolume,
+    attenuation_factor,
+    tube_resistance,
+)
 from sensor.pneumatic.plant import Plant  # noqa: E402
 from sensor.pneumatic.sensors import ideal_sensors  # noqa: E402
 from sensor.pneumatic.simulate import simulate  # noqa: E402

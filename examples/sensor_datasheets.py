@@ -19,7 +19,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 from geometry.atomic import save_figure  # noqa: E402
 from geometry.params import MATERIALS, preset  # noqa: E402
 from sensor.mechanics.hysteresis import TABLE6  # noqa: E402
-from sensor.readout.sensor_model import build_sensor, cross_axis, datasheet, loading_cycle  # noqa: E402
+from sensor.readout.sensor_model import (  # noqa: E402
+    build_sensor,
+    cross_axis,
+    datasheet,
+    loading_cycle,
+)
 
 SPECIMENS = ("basis", "sample-a", "sample-b")
 

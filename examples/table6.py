@@ -1,8 +1,8 @@
 """Print the model against thesis Table 6 (as-cut specimens, hinge length calibrated on the
 basis). Run: python examples/table6.py"""
 
-from sensor.mechanics.table6 import calibrate_hinge_length, table6_comparison
 from sensor.mechanics.hysteresis import DEFAULT_LAW
+from sensor.mechanics.table6 import calibrate_hinge_length, table6_comparison
 
 
 def pct(model, thesis):

@@ -18,8 +18,14 @@ import numpy as np
 import trimesh
 
 from geometry.atomic import atomic_path
-from geometry.cad import (extrude, face_loops, hinge_neck_mm, hole_count, offset_face,
-                          profile_face)
+from geometry.cad import (
+    extrude,
+    face_loops,
+    hinge_neck_mm,
+    hole_count,
+    offset_face,
+    profile_face,
+)
 from geometry.checks import assert_feasible
 from geometry.errors import GeometryError, ParameterError
 from geometry.layout import make_layout, make_parts

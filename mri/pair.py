@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 
-from mri.image import MriImage
 from mri.errors import PairMismatchError
+from mri.image import MriImage
 from mri.io import DICOM_ACQUISITION_FIELDS, DICOM_DESCRIPTIVE_FIELDS
 
 #: Relative tolerance on spacing and protocol numbers (DICOM decimal strings round-trip).

@@ -11,8 +11,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from geometry.errors import ParameterError
-from geometry.params import HINGE_SETS, MATERIALS, PRESETS, Design, load_design, make_design, preset
+from geometry.params import (
+    HINGE_SETS,
+    MATERIALS,
+    PRESETS,
+    Design,
+    load_design,
+    make_design,
+    preset,
+)
+from sensor.errors import UsageError
 
 DESIGN_KINDS = ("basis", "proposed")
 DEFAULT_PHI1_DEG, DEFAULT_PHI2_DEG, DEFAULT_HINGES = 22.0, 17.2, "05-03"
@@ -38,12 +46,12 @@ def add_design_arguments(parser: argparse.ArgumentParser) -> None:
 def _flag_design(args: argparse.Namespace) -> Design:
     kind = args.design or "proposed"
     if kind not in DESIGN_KINDS:
-        raise ParameterError(f"--design = {kind!r}: must be one of {', '.join(DESIGN_KINDS)}")
+        raise UsageError(f"--design = {kind!r}: must be one of {', '.join(DESIGN_KINDS)}")
     phi1 = DEFAULT_PHI1_DEG if args.phi1 is None else args.phi1
     hinges = args.hinges or DEFAULT_HINGES
     if kind == "basis":
         if args.phi2 is not None:
-            raise ParameterError(f"--phi2 = {args.phi2:g}: the basis body has no middle branch "
+            raise UsageError(f"--phi2 = {args.phi2:g}: the basis body has no middle branch "
                                  "(drop --phi2 or use --design proposed)")
         return make_design(phi1, None, hinges, name=f"basis-{phi1:g}-{hinges}")
     phi2 = DEFAULT_PHI2_DEG if args.phi2 is None else args.phi2
@@ -53,15 +61,15 @@ def _flag_design(args: argparse.Namespace) -> Design:
 def design_from_args(args: argparse.Namespace) -> Design:
     """The design chosen by the flags of :func:`add_design_arguments`.
 
-    Raises :class:`ParameterError` for conflicting or unknown choices (one-line messages).
+    Raises :class:`~sensor.errors.UsageError` for conflicting or unknown choices (one-line messages).
     """
     shape_flags = [f"--{n}" for n in ("design", "phi1", "phi2", "hinges")
                    if getattr(args, n) is not None]
     if args.preset is not None and args.config is not None:
-        raise ParameterError("--preset and --config: give only one source for the design")
+        raise UsageError("--preset and --config: give only one source for the design")
     source = "--preset" if args.preset is not None else "--config" if args.config is not None else None
     if source and shape_flags:
-        raise ParameterError(f"{shape_flags[0]} cannot be combined with {source} "
+        raise UsageError(f"{shape_flags[0]} cannot be combined with {source} "
                              "(give the design by flags, by --preset or by --config)")
     if args.preset is not None:
         design = preset(args.preset)
@@ -73,7 +81,7 @@ def design_from_args(args: argparse.Namespace) -> Design:
         design = _flag_design(args)
     if args.material is not None:
         if args.material not in MATERIALS:
-            raise ParameterError(f"--material = {args.material!r}: must be one of {', '.join(MATERIALS)}")
+            raise UsageError(f"--material = {args.material!r}: must be one of {', '.join(MATERIALS)}")
         if MATERIALS[args.material] != design.material:
             design = design.replace(material=MATERIALS[args.material],
                                     name=f"{design.name}-{args.material}")

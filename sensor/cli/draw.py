@@ -11,10 +11,10 @@ import numpy as np
 
 from geometry.atomic import save_figure
 from geometry.checks import assert_feasible
-from geometry.errors import ParameterError
 from geometry.layout import kinematic_amplification, make_layout, make_parts
 from geometry.params import Design
 from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.errors import UsageError
 
 IMAGE_FORMATS = ("png", "svg")
 _BODY, _EDGE, _HINGE, _PORT, _DIM = "#e8dcc0", "#333333", "#b22222", "#1f4e9c", "#555555"
@@ -149,9 +149,9 @@ def run(args: argparse.Namespace) -> int:
 
     fmt = args.out.suffix.lower().lstrip(".")
     if fmt not in IMAGE_FORMATS:
-        raise ParameterError(f"--out = {str(args.out)!r}: must end in .png or .svg")
+        raise UsageError(f"--out = {str(args.out)!r}: must end in .png or .svg")
     if not (math.isfinite(args.dpi) and args.dpi > 0):
-        raise ParameterError(f"--dpi = {args.dpi:g}: must be a positive number")
+        raise UsageError(f"--dpi = {args.dpi:g}: must be a positive number")
     design = design_from_args(args)
     assert_feasible(design)
     fig, ax = plt.subplots(figsize=(5.0, 5.6))

@@ -30,7 +30,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 
 MODELS = ("dead-volume", "richer-hurmuzlu", "two-volume", "distributed")
 FREQUENCY_DECADES = 2.0      # the grid runs log-spaced from fmax / 100 to fmax
@@ -89,7 +89,7 @@ class LineCase:
 
 def _positive(flag: str, value, unit: str) -> float:
     if value is None or not (math.isfinite(value) and value > 0):
-        raise SensorError(f"{flag} = {value!r}: must be a positive finite number ({unit})")
+        raise SensorInputError(f"{flag} = {value!r}: must be a positive finite number ({unit})")
     return float(value)
 
 
@@ -98,7 +98,7 @@ def parse_models(values: list[str]) -> tuple[str, ...]:
     names = [n.strip() for v in values for n in v.split(",") if n.strip()]
     for n in names:
         if n not in MODELS:
-            raise SensorError(f"--model = {n!r}: must be one of {', '.join(MODELS)}")
+            raise SensorInputError(f"--model = {n!r}: must be one of {', '.join(MODELS)}")
     return tuple(dict.fromkeys(names)) or MODELS
 
 
@@ -110,11 +110,11 @@ def case_from_args(args: argparse.Namespace) -> LineCase:
     volume = _positive("--volume", args.volume, "m^3")
     atm = AIR.atmosphere_Pa
     if not (math.isfinite(args.pressure) and args.pressure > atm):
-        raise SensorError(f"--pressure = {args.pressure!r}: must be an absolute pressure above the "
+        raise SensorInputError(f"--pressure = {args.pressure!r}: must be an absolute pressure above the "
                           f"atmosphere ({atm:g} Pa)")
     fmax = AIR.speed_of_sound / length if args.fmax is None else _positive("--fmax", args.fmax, "Hz")
     if args.points < 10:
-        raise SensorError(f"--points = {args.points!r}: must be an integer >= 10")
+        raise SensorInputError(f"--points = {args.points!r}: must be an integer >= 10")
     return LineCase(length, bore, volume, float(args.pressure), parse_models(args.model), fmax,
                     args.points)
 
@@ -223,7 +223,7 @@ def step_test(plants: dict, case: LineCase) -> tuple[float, dict]:
     while not _stationary(ref := step(timing, half), half, tol):
         half *= 2.0
         if half > MAX_HALF_PERIOD_S:
-            raise SensorError(f"step test: the chamber did not settle within {MAX_HALF_PERIOD_S:g} s "
+            raise SensorInputError(f"step test: the chamber did not settle within {MAX_HALF_PERIOD_S:g} s "
                               f"(--length {case.length_m:g} m, --bore {case.bore_m:g} m, --volume "
                               f"{case.volume_m3:g} m^3): the line is too narrow or the volume too large")
     return half, {m: ref if cp is timing else step(cp, half) for m, cp in plants.items()}

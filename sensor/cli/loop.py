@@ -9,7 +9,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 
 STUDIES = ("observer", "controllers", "sensor")
 
@@ -51,15 +51,15 @@ def register(subparsers) -> None:
 def _setup(args):
     from sensor.pneumatic.controllers import CONTROLLERS
     from sensor.pneumatic.cylinder import spring_contact
-    from sensor.pneumatic.studies import DacmForceSensor, Setup, series_spring
     from sensor.pneumatic.observer import OBSERVER_KINDS
+    from sensor.pneumatic.studies import DacmForceSensor, Setup, series_spring
 
     if args.controller not in CONTROLLERS:
-        raise SensorError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")
+        raise SensorInputError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")
     if args.observer not in OBSERVER_KINDS:
-        raise SensorError(f"--observer {args.observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
+        raise SensorInputError(f"--observer {args.observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
     if not (math.isfinite(args.line_length) and args.line_length > 0):
-        raise SensorError(f"--line-length {args.line_length!r}: must be a positive finite number (m)")
+        raise SensorInputError(f"--line-length {args.line_length!r}: must be a positive finite number (m)")
     valve = args.valve or ("enfield-lh05" if args.controller in ("smc", "line-model") else "festo-mpye-5-1/8-lf")
     kw = {}
     if args.sensor:
@@ -73,14 +73,14 @@ def _setup(args):
 
 
 def run(args) -> int:
-    from sensor.pneumatic.studies import CapacityWarning
+    from sensor.errors import CapacityWarning
 
     if args.study is not None and args.study not in STUDIES:
-        raise SensorError(f"--study {args.study!r}: must be one of {', '.join(STUDIES)}")
+        raise SensorInputError(f"--study {args.study!r}: must be one of {', '.join(STUDIES)}")
     if args.segments < 1:
-        raise SensorError(f"--segments {args.segments!r}: must be an integer >= 1")
+        raise SensorInputError(f"--segments {args.segments!r}: must be an integer >= 1")
     if not (math.isfinite(args.duration) and args.duration > 0):
-        raise SensorError(f"--duration {args.duration!r}: must be a positive finite number (s)")
+        raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number (s)")
     if not args.no_plots or args.study:
         args.out.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings(record=True) as caught:

@@ -40,30 +40,30 @@ def register(subparsers) -> None:
 
 def parse_window_size(text: str) -> tuple[int, int]:
     """``"WxH"`` -> (W, H) pixels, each in [100, MAX_WINDOW_PX]."""
-    from geometry.errors import ParameterError
+    from sensor.errors import UsageError
 
     m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
     if not m or not all(100 <= int(v) <= MAX_WINDOW_PX for v in m.groups()):
-        raise ParameterError(f"--window-size = {text!r}: must be WxH in pixels, each between "
+        raise UsageError(f"--window-size = {text!r}: must be WxH in pixels, each between "
                              f"100 and {MAX_WINDOW_PX} (e.g. 1600x1200)")
     return int(m.group(1)), int(m.group(2))
 
 
 def run(args: argparse.Namespace) -> int:
     from geometry.checks import assert_feasible
-    from geometry.errors import ParameterError
     from geometry.layout import make_layout, make_parts
     from geometry.topology import build_beam_model
+    from sensor.errors import UsageError
     from sensor.mechanics.render import deformed_body, render_png
     from sensor.mechanics.solver import solve
 
     if not (math.isfinite(args.target_output) and args.target_output > 0):
-        raise ParameterError(f"--target-output = {args.target_output:g}: must be a positive "
+        raise UsageError(f"--target-output = {args.target_output:g}: must be a positive "
                              "number of mm")
     if args.scale is not None and not (math.isfinite(args.scale) and args.scale > 0):
-        raise ParameterError(f"--scale = {args.scale:g}: must be a positive number")
+        raise UsageError(f"--scale = {args.scale:g}: must be a positive number")
     if args.out is not None and args.out.suffix.lower() != ".png":
-        raise ParameterError(f"--out = {str(args.out)!r}: must end in .png")
+        raise UsageError(f"--out = {str(args.out)!r}: must end in .png")
     window = parse_window_size(args.window_size)
     design = design_from_args(args)
     assert_feasible(design)

@@ -119,22 +119,27 @@ def _plot_calibration(sensor, ds, path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from geometry.checks import assert_feasible
-    from geometry.errors import ParameterError
+    from sensor.errors import UsageError
     from sensor.readout.optics import OpticsSetup
-    from sensor.readout.sensor_model import (CALIBRATIONS, Readout, build_sensor, cross_axis,
-                                     datasheet)
+    from sensor.readout.sensor_model import (
+        CALIBRATIONS,
+        Readout,
+        build_sensor,
+        cross_axis,
+        datasheet,
+    )
 
     design = design_from_args(args)
     assert_feasible(design)
     if args.calibration not in CALIBRATIONS:
-        raise ParameterError(f"--calibration = {args.calibration!r}: must be one of "
+        raise UsageError(f"--calibration = {args.calibration!r}: must be one of "
                              f"{', '.join(CALIBRATIONS)}")
     optics = OpticsSetup() if args.na is None else OpticsSetup(numerical_aperture=args.na)
     readout = Readout(sample_rate_Hz=args.sample_rate, adc_bits=args.adc_bits,
                       adc_min_V=args.adc_range[0], adc_max_V=args.adc_range[1],
                       readout=args.readout, model=args.optics_model)
     if not args.tolerance > 0:
-        raise ParameterError(f"--tolerance = {args.tolerance!r}: must be a positive number (%)")
+        raise UsageError(f"--tolerance = {args.tolerance!r}: must be a positive number (%)")
     sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
                           calibration=args.calibration)
     ds = datasheet(sensor, material=design.material.name)

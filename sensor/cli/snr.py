@@ -16,13 +16,21 @@ import sys
 from pathlib import Path
 
 from geometry.atomic import atomic_path, save_figure
-from mri.errors import MriError, RoiError
+from mri.errors import RoiError
 from mri.figure import PairPanel, pair_figure
 from mri.image import MriImage
 from mri.io import load_image
 from mri.pair import check_pair
 from mri.roi import Roi, parse_roi, resolve_roi
-from mri.snr import DEFAULT_ROIS, METHODS, RICIAN_BIAS_SNR, PairResult, difference_percent, measure_pair
+from mri.snr import (
+    DEFAULT_ROIS,
+    METHODS,
+    RICIAN_BIAS_SNR,
+    PairResult,
+    difference_percent,
+    measure_pair,
+)
+from sensor.errors import UsageError
 
 _ROI_HELP = (
     "region of interest, repeatable (used by every method): whole | box:ROW:COL:HEIGHT:WIDTH "
@@ -30,10 +38,6 @@ _ROI_HELP = (
     "| mask:PATH | phantom[:EROSION] | nema5[:SIZE[:OFFSET]]; sizes in pixels or with an mm "
     "suffix (e.g. central-circle:80mm). Default: whole image for thesis, nema5 for nema"
 )
-
-
-class SnrUsageError(MriError):
-    """A combination of command-line arguments that ``dacm snr`` cannot run."""
 
 
 def register(subparsers) -> None:
@@ -124,7 +128,7 @@ def _figure_panels(pairs: list[tuple[str, MriImage, MriImage, dict]], k: int | N
     for title, a, b, specs in pairs:
         index = a.n_slices // 2 if k is None else k
         if not 0 <= index < a.n_slices:
-            raise SnrUsageError(f"--figure-slice {k} is outside 0..{a.n_slices - 1}")
+            raise UsageError(f"--figure-slice {k} is outside 0..{a.n_slices - 1}")
         users: dict[str, list[str]] = {}
         for method, method_specs in specs.items():
             for spec in method_specs:
@@ -243,14 +247,14 @@ def _change(new: float, old: float) -> float:
 def _check_mode(args) -> None:
     if args.reference:
         if args.images:
-            raise SnrUsageError("give either a pair A B or --reference A1 A2, not both")
+            raise UsageError("give either a pair A B or --reference A1 A2, not both")
         if not args.condition:
-            raise SnrUsageError("--reference needs at least one --condition NAME B1 B2")
+            raise UsageError("--reference needs at least one --condition NAME B1 B2")
     else:
         if args.condition:
-            raise SnrUsageError("--condition needs --reference A1 A2")
+            raise UsageError("--condition needs --reference A1 A2")
         if len(args.images) != 2:
-            raise SnrUsageError(
+            raise UsageError(
                 f"expected two images A B (a repeated acquisition), got {len(args.images)}"
             )
 
@@ -278,7 +282,7 @@ def _run_conditions(args, methods) -> int:
     reference = _measure("reference", *args.reference, args, methods)
     names = [name for name, _, _ in args.condition]
     if len(set(names + ["reference"])) != len(names) + 1:
-        raise SnrUsageError(f"condition names must be unique and not 'reference': {names}")
+        raise UsageError(f"condition names must be unique and not 'reference': {names}")
     conditions = []
     for name, b1, b2 in args.condition:
         pair = _measure(name, b1, b2, args, methods)

@@ -33,19 +33,19 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from geometry.checks import assert_feasible
-    from geometry.errors import ParameterError
     from geometry.layout import kinematic_amplification
     from geometry.topology import build_beam_model, load_model
+    from sensor.errors import UsageError
     from sensor.mechanics.hysteresis import DEFAULT_LAW
     from sensor.mechanics.solver import SolverOptions, solve
 
     if args.increments < 1:
-        raise ParameterError(f"--increments = {args.increments}: must be at least 1")
+        raise UsageError(f"--increments = {args.increments}: must be at least 1")
     if args.model is not None:
         shape = [f for f in ("design", "phi1", "phi2", "hinges", "preset", "config")
                  if getattr(args, f) is not None]
         if shape:
-            raise ParameterError(f"--model cannot be combined with --{shape[0]}")
+            raise UsageError(f"--model cannot be combined with --{shape[0]}")
         model, name, a_kin = load_model(args.model), args.model.stem, None
     else:
         design = design_from_args(args)

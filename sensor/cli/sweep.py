@@ -45,7 +45,8 @@ def register(subparsers) -> None:
 def spec_from_args(args: argparse.Namespace):
     """The sweep settings: defaults, then the TOML file, then the flags."""
     from geometry.errors import GeometryError
-    from sensor.design_space.sweep import Grid, SweepError, SweepSpec
+    from sensor.design_space.sweep import Grid, SweepSpec
+    from sensor.errors import SweepError
 
     cfg: dict = {}
     if args.config is not None:
@@ -92,8 +93,13 @@ class _Progress:
     """A rich progress bar: cells done, rate and time left."""
 
     def __init__(self):
-        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                                   TimeRemainingColumn)
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeRemainingColumn,
+        )
         self.bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
                             TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), transient=True)
         self.t0 = time.monotonic()
@@ -114,7 +120,8 @@ class _Progress:
 def run(args: argparse.Namespace) -> int:
     from importlib.metadata import version
 
-    from sensor.design_space.sweep import SweepError, run_sweep, save_dataset
+    from sensor.design_space.sweep import run_sweep, save_dataset
+    from sensor.errors import SweepError
 
     spec = spec_from_args(args)
     if args.workers < 0:

@@ -22,9 +22,15 @@ import numpy as np
 import xarray as xr
 
 from geometry.checks import check_design
-from geometry.params import HINGE_SETS, Design, design_from_dict, design_to_dict, hinge_set_thicknesses
+from geometry.params import (
+    HINGE_SETS,
+    Design,
+    design_from_dict,
+    design_to_dict,
+    hinge_set_thicknesses,
+)
 from geometry.topology import build_beam_model
-from sensor.errors import SensorError
+from sensor.errors import SweepError
 from sensor.mechanics.hysteresis import DEFAULT_LAW
 from sensor.mechanics.solver import SolverOptions, solve_batch
 
@@ -48,10 +54,6 @@ RATIOS = {
 }
 #: Monte-Carlo statistics kept for these qualifiers.
 MC_QUALIFIERS = ("amplification", "sensitivity_mm_per_N", "strain_energy_mJ", "hysteresis", "quality_mm_per_N")
-
-
-class SweepError(SensorError):
-    """A sweep that cannot run: bad grid, unreachable scheduler, mismatched resume."""
 
 
 @dataclass(frozen=True)

@@ -15,11 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sensor.errors import SensorError
-
-
-class HysteresisError(SensorError):
-    """A loop that cannot give a hysteresis value (too short, not a loop, bad columns)."""
+from sensor.errors import HysteresisError, SensorInputError
 
 
 @dataclass(frozen=True)
@@ -114,7 +110,7 @@ class StrainEnergyLaw:
     def calibrate(cls, specimen: str = "basis") -> "StrainEnergyLaw":
         """Calibrate on one specimen of Table 6 (its measured H and measured SE)."""
         if specimen not in TABLE6:
-            raise SensorError(f"specimen = {specimen!r}: must be one of {', '.join(TABLE6)}")
+            raise SensorInputError(f"specimen = {specimen!r}: must be one of {', '.join(TABLE6)}")
         s = TABLE6[specimen]
         return cls(s.hysteresis / s.strain_energy_mJ, specimen)
 

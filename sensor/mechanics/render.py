@@ -36,7 +36,7 @@ import numpy as np
 from geometry.layout import Part
 from geometry.params import Design
 from geometry.topology import BeamModel
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 from sensor.mechanics.solver import SolveResult, prepare
 
 #: Distance (mm) within which a point counts as on a part, or a node as on a part's outline:
@@ -135,14 +135,14 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
             elif np.allclose(ends[::-1], p.axis, atol=ON_PART_TOL_MM, rtol=0):
                 motions[i] = PartMotion(-1, m, b, a)
         if motions[i] is None:
-            raise SensorError(f"layout part {p.name!r} matches no compliant member of the beam "
+            raise SensorInputError(f"layout part {p.name!r} matches no compliant member of the beam "
                               "model: model and design do not match")
     rigid = [i for i, p in enumerate(parts) if p.axis is None]
     for i in rigid:
         on = np.flatnonzero(polygon_distance(parts[i].polygon, model.nodes) <= ON_PART_TOL_MM)
         moving = {int(body[n]) for n in on if free[body[n]]}
         if len(moving) > 1 or (moving and len(moving) != len({int(body[n]) for n in on})):
-            raise SensorError(f"layout part {parts[i].name!r} touches nodes of different rigid "
+            raise SensorInputError(f"layout part {parts[i].name!r} touches nodes of different rigid "
                               "bodies of the beam model: model and design do not match")
         if len(on):
             motions[i] = PartMotion(int(on[0]), -1, -1, -1)
@@ -151,7 +151,7 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
             j = next((j for j in rigid if motions[j] is not None
                       and _overlap(parts[i].polygon, parts[j].polygon)), None)
             if j is None:
-                raise SensorError(f"layout part {parts[i].name!r} is attached to no node of the "
+                raise SensorInputError(f"layout part {parts[i].name!r} is attached to no node of the "
                                   "beam model")
             motions[i] = motions[j]
     return motions
@@ -346,7 +346,7 @@ def render_png(body: RenderedBody, path: str | Path, title: str, subtitle: str,
     finally:
         p.close()
     if img is None or img.std() == 0:
-        raise SensorError("the off-screen renderer produced a blank picture (is libEGL/Mesa "
+        raise SensorInputError("the off-screen renderer produced a blank picture (is libEGL/Mesa "
                           "installed?)")
     import imageio.v3 as iio
 

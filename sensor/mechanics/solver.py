@@ -39,36 +39,16 @@ import scipy.sparse as sp
 from scipy.integrate import simpson
 
 from geometry.topology import BeamModel
-from sensor.errors import SensorError
+from sensor.errors import (
+    ConvergenceError,
+    InstabilityError,
+    SensorInputError,
+    SingularSystemError,
+    SnapThroughError,
+    UnreachableTargetError,
+)
 
 SHEAR_FORM_FACTOR = 6.0 / 5.0  # rectangle, in the shear term of eqs 80-81
-
-
-class SolverError(SensorError):
-    """A solve that failed: the message names the increment, the load and the residual."""
-
-
-class SingularSystemError(SolverError):
-    """The assembled system of eqs 85-86 is singular (a mechanism, or a missing support)."""
-
-
-
-
-class UnreachableTargetError(SolverError):
-    """The output cannot reach the target travel (it moves the wrong way or stalls)."""
-
-
-class ConvergenceError(SolverError):
-    """The equilibrium residual would not fall below the tolerance."""
-
-
-class InstabilityError(SolverError):
-    """The equilibrium reached is unstable: the tangent stiffness has a negative mode (the
-    body would buckle sideways or snap away from the path the solver follows)."""
-
-
-class SnapThroughError(InstabilityError):
-    """The input force fell while the output travel grew: a limit point (snap-through)."""
 
 
 # --- member stiffness from Castigliano (eqs 80-82) -----------------------------------------
@@ -448,16 +428,16 @@ def solve_batch(models: list[BeamModel], target_output_mm: float | None = None,
     if target_output_mm is None and target_force_N is None:
         target_output_mm = 1.0
     if target_output_mm is not None and target_force_N is not None:
-        raise SensorError("give one of target_output_mm and target_force_N, not both")
+        raise SensorInputError("give one of target_output_mm and target_force_N, not both")
     target = target_output_mm if target_force_N is None else target_force_N
     if not (np.isfinite(target) and target > 0):
         name = "target_output_mm" if target_force_N is None else "target_force_N"
-        raise SensorError(f"{name} = {target!r}: must be a positive finite number")
+        raise SensorInputError(f"{name} = {target!r}: must be a positive finite number")
     topo = prepare(models[0])
     for m in models[1:]:
         if m.member_nodes.shape != models[0].member_nodes.shape or not np.array_equal(
                 m.member_nodes, models[0].member_nodes) or m.member_kind != models[0].member_kind:
-            raise SensorError("solve_batch needs models of one connectivity")
+            raise SensorInputError("solve_batch needs models of one connectivity")
     bt = _make_batch(topo, models)
     disp = target_force_N is None
     run = _Run(topo, bt, models, options, displacement_control=disp, target=target)

@@ -15,9 +15,10 @@ from scipy.optimize import brentq
 
 from geometry.params import preset
 from geometry.topology import build_beam_model
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 from sensor.mechanics.hysteresis import DEFAULT_LAW, TABLE6, StrainEnergyLaw
 from sensor.mechanics.solver import solve
+
 
 #: Amplification implied by the thesis' analytic Table 6 values: A = 1 / (2 SE sensitivity)
 #: at 1 mm output (DESIGN section 3 quotes 2.22 and 4.11).
@@ -37,7 +38,7 @@ def calibrate_hinge_length(target_sensitivity_mm_per_N: float = TABLE6["basis"].
 
     lo, hi = mismatch(bracket[0]), mismatch(bracket[1])
     if lo * hi > 0:
-        raise SensorError(f"target sensitivity {target_sensitivity_mm_per_N:g} mm/N: no hinge length "
+        raise SensorInputError(f"target sensitivity {target_sensitivity_mm_per_N:g} mm/N: no hinge length "
                           f"in {bracket[0]:g}-{bracket[1]:g} mm reaches it ({specimen} gives "
                           f"{lo + target_sensitivity_mm_per_N:.4g} to {hi + target_sensitivity_mm_per_N:.4g} mm/N)")
     return brentq(mismatch, *bracket, xtol=1e-4)

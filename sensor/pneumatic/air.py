@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 
 
 @dataclass(frozen=True)
@@ -39,9 +39,9 @@ class Air:
                      "atmosphere_Pa", "rho0_kg_m3", "t0_K"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                raise SensorError(f"air {name} = {value!r}: must be a positive finite number")
+                raise SensorInputError(f"air {name} = {value!r}: must be a positive finite number")
         if not (1.0 < self.gamma <= 5.0 / 3.0):
-            raise SensorError(f"air gamma = {self.gamma!r}: must lie in (1, 5/3]")
+            raise SensorInputError(f"air gamma = {self.gamma!r}: must lie in (1, 5/3]")
 
     @property
     def rt(self) -> float:

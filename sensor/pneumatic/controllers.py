@@ -34,11 +34,25 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 from sensor.pneumatic._kernel import steady_coefficient
-from sensor.pneumatic.observer import (Q_A1, Q_A2, Q_BCRIT, Q_KREF, Q_PATM, Q_PSUP, Q_RLAM, Q_RT,
-                                       Q_STROKE, Q_V01, Q_V02, Q_VISC, ObserverModel, PressureObserver,
-                                       volumes)
+from sensor.pneumatic.observer import (
+    Q_A1,
+    Q_A2,
+    Q_BCRIT,
+    Q_KREF,
+    Q_PATM,
+    Q_PSUP,
+    Q_RLAM,
+    Q_RT,
+    Q_STROKE,
+    Q_V01,
+    Q_V02,
+    Q_VISC,
+    ObserverModel,
+    PressureObserver,
+    volumes,
+)
 from sensor.pneumatic.sensors import DifferentiatingFilter
 from sensor.pneumatic.valve import orifice_flow
 
@@ -63,12 +77,12 @@ class Reference:
 
     def __post_init__(self) -> None:
         if self.kind not in REFERENCE_KINDS:
-            raise SensorError(f"reference kind = {self.kind!r}: must be one of {', '.join(REFERENCE_KINDS)}")
+            raise SensorInputError(f"reference kind = {self.kind!r}: must be one of {', '.join(REFERENCE_KINDS)}")
         if self.kind != "step" and not (math.isfinite(self.frequency_Hz) and self.frequency_Hz > 0):
-            raise SensorError(f"reference frequency = {self.frequency_Hz!r} Hz: must be a positive finite number")
+            raise SensorInputError(f"reference frequency = {self.frequency_Hz!r} Hz: must be a positive finite number")
         for name in ("amplitude_N", "offset_N", "step_s"):
             if not math.isfinite(getattr(self, name)):
-                raise SensorError(f"reference {name} = {getattr(self, name)!r}: must be finite")
+                raise SensorInputError(f"reference {name} = {getattr(self, name)!r}: must be finite")
 
     def value(self, t: float) -> float:
         if self.kind == "sine":
@@ -106,11 +120,11 @@ def parse_reference(text: str, amplitude_N: float = 24.0, offset_N: float = 0.0,
         try:
             f = float(m.group(2))
         except ValueError:
-            raise SensorError(f"reference = {text!r}: the frequency must be a number, e.g. sine:1Hz") from None
+            raise SensorInputError(f"reference = {text!r}: the frequency must be a number, e.g. sine:1Hz") from None
         return Reference(m.group(1), f, amplitude_N, offset_N, step_s)
     if text.strip() == "step":
         return Reference("step", 0.0, amplitude_N, offset_N, step_s)
-    raise SensorError(f"reference = {text!r}: must be sine:<f>Hz, square:<f>Hz or step")
+    raise SensorInputError(f"reference = {text!r}: must be sine:<f>Hz, square:<f>Hz or step")
 
 
 # --- valve calibration inverse and flow functions ---------------------------------------------------
@@ -422,7 +436,7 @@ class LineModel(_Loop):
                                                 self.dt, self.inertance[s], self.model.line_bore_m[s],
                                                 self.model.viscosity_Pa_s, rt)
                 if not (math.isfinite(pc) and 0.0 < pc < 1e8):
-                    raise SensorError(f"line-model controller stopped at t = {t:.6g} s: its chamber pressure "
+                    raise SensorInputError(f"line-model controller stopped at t = {t:.6g} s: its chamber pressure "
                                       f"estimate P_c{s + 1} = {pc!r} Pa left its range (0, 1e8) Pa")
                 self.state[2 * s], self.state[2 * s + 1] = pc, mc
         self.z_prev = z
@@ -464,4 +478,4 @@ class LineModel(_Loop):
 def _check_gains(**gains) -> None:
     for name, value in gains.items():
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-            raise SensorError(f"controller gain {name} = {value!r}: must be a finite number >= 0")
+            raise SensorInputError(f"controller gain {name} = {value!r}: must be a finite number >= 0")

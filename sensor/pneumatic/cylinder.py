@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 
 
 def _check(obj, names: tuple[str, ...], strict: bool) -> None:
@@ -20,7 +20,7 @@ def _check(obj, names: tuple[str, ...], strict: bool) -> None:
         ok = math.isfinite(value) and (value > 0 if strict else value >= 0)
         if not ok:
             rule = "a positive finite number" if strict else "a finite number >= 0"
-            raise SensorError(f"{type(obj).__name__.lower()} {name} = {value!r}: must be {rule}")
+            raise SensorInputError(f"{type(obj).__name__.lower()} {name} = {value!r}: must be {rule}")
 
 
 @dataclass(frozen=True)
@@ -48,9 +48,9 @@ class Cylinder:
         _check(self, ("rod_m", "viscous_N_s_m", "coulomb_N", "leak_kg_s_Pa",
                       "stop_damping_N_s_m"), False)
         if self.rod_m >= self.bore_m:
-            raise SensorError(f"cylinder rod_m = {self.rod_m!r}: must be smaller than bore_m = {self.bore_m!r}")
+            raise SensorInputError(f"cylinder rod_m = {self.rod_m!r}: must be smaller than bore_m = {self.bore_m!r}")
         if not 1.0 <= self.polytropic <= 1.4:
-            raise SensorError(f"cylinder polytropic = {self.polytropic!r}: must lie in [1, 1.4] (eq 15)")
+            raise SensorInputError(f"cylinder polytropic = {self.polytropic!r}: must lie in [1, 1.4] (eq 15)")
 
     @property
     def area_1_m2(self) -> float:
@@ -85,7 +85,7 @@ class FixedChambers:
     def __post_init__(self) -> None:
         _check(self, ("volume_1_m3", "volume_2_m3"), True)
         if not 1.0 <= self.polytropic <= 1.4:
-            raise SensorError(f"fixedchambers polytropic = {self.polytropic!r}: must lie in [1, 1.4] (eq 15)")
+            raise SensorInputError(f"fixedchambers polytropic = {self.polytropic!r}: must lie in [1, 1.4] (eq 15)")
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 
 LAW_EQ57 = 0      # (32 + 0.158 Re^0.75) mu / (rho D^2), eq 57
 LAW_BLEND = 1     # Hagen-Poiseuille / blend / Blasius
@@ -51,9 +51,9 @@ def _check_geometry(length_m: float, bore_m: float, allow_zero_length: bool = Fa
     ok_len = math.isfinite(length_m) and (length_m >= 0 if allow_zero_length else length_m > 0)
     if not ok_len:
         rule = ">= 0" if allow_zero_length else "> 0"
-        raise SensorError(f"line length_m = {length_m!r}: must be a finite number {rule}")
+        raise SensorInputError(f"line length_m = {length_m!r}: must be a finite number {rule}")
     if not (math.isfinite(bore_m) and bore_m > 0):
-        raise SensorError(f"line bore_m = {bore_m!r}: must be a positive finite number")
+        raise SensorInputError(f"line bore_m = {bore_m!r}: must be a positive finite number")
 
 
 @dataclass(frozen=True)
@@ -128,7 +128,7 @@ class Distributed(DeadVolume):
     def __post_init__(self) -> None:
         _check_geometry(self.length_m, self.bore_m)
         if not isinstance(self.segments, (int, np.integer)) or self.segments < 1:
-            raise SensorError(f"line segments = {self.segments!r}: must be an integer >= 1")
+            raise SensorInputError(f"line segments = {self.segments!r}: must be an integer >= 1")
 
     def layout(self) -> LineLayout:
         n = int(self.segments)
@@ -146,5 +146,5 @@ LINE_MODELS = {"dead-volume": DeadVolume, "richer-hurmuzlu": RicherHurmuzlu,
 def make_line(model: str, length_m: float, bore_m: float = 0.004, **options):
     """Build a line model by its CLI name (dead-volume, richer-hurmuzlu, two-volume, distributed)."""
     if model not in LINE_MODELS:
-        raise SensorError(f"line model = {model!r}: must be one of {', '.join(LINE_MODELS)}")
+        raise SensorInputError(f"line model = {model!r}: must be one of {', '.join(LINE_MODELS)}")
     return LINE_MODELS[model](length_m, bore_m, **options)

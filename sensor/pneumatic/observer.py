@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 from sensor.pneumatic.cylinder import Cylinder
 from sensor.pneumatic.valve import port_flow
 
@@ -61,7 +61,7 @@ class ObserverModel:
         """Nominal parameters of a :class:`~sensor.pneumatic.plant.Plant` (cylinder only)."""
         act, air, valve = plant.actuator, plant.air, plant.valve
         if not isinstance(act, Cylinder):
-            raise SensorError(f"plant actuator = {type(act).__name__}: the observer needs a Cylinder "
+            raise SensorInputError(f"plant actuator = {type(act).__name__}: the observer needs a Cylinder "
                               "(piston force and moving chamber volumes, eqs 17-21)")
         q = np.zeros(N_Q)
         q[Q_RT], q[Q_PATM], q[Q_PSUP] = air.rt, air.atmosphere_Pa, plant.supply_Pa
@@ -91,7 +91,7 @@ class ObserverModel:
         (default mid-stroke): the correction's Jacobian in x has the single nonzero eigenvalue
         -k (A_1 / (V_1^2 A_2) + A_2 / (V_2^2 A_1))."""
         if not (math.isfinite(rate_Hz) and rate_Hz >= 0):
-            raise SensorError(f"observer rate_Hz = {rate_Hz!r}: must be a finite number >= 0")
+            raise SensorInputError(f"observer rate_Hz = {rate_Hz!r}: must be a finite number >= 0")
         z = self.q[Q_STROKE] / 2 if z_m is None else z_m
         v1, v2 = self.volumes(z)
         a1, a2 = self.q[Q_A1], self.q[Q_A2]
@@ -158,12 +158,12 @@ class PressureObserver:
     def __init__(self, model: ObserverModel, kind: str = "force", gain_m6_s: float = 0.0,
                  dt_s: float = 1e-3, initial_Pa: tuple[float, float] = (0.0, 0.0), gain_on_s: float = 0.0):
         if kind not in OBSERVER_KINDS:
-            raise SensorError(f"observer = {kind!r}: must be one of {', '.join(OBSERVER_KINDS)}")
+            raise SensorInputError(f"observer = {kind!r}: must be one of {', '.join(OBSERVER_KINDS)}")
         if not (math.isfinite(gain_m6_s) and gain_m6_s >= 0):
-            raise SensorError(f"observer gain k = {gain_m6_s!r} m^6/s: must be a finite number >= 0 "
+            raise SensorInputError(f"observer gain k = {gain_m6_s!r} m^6/s: must be a finite number >= 0 "
                               "(k < 0 makes eq 34 positive and the observer unstable)")
         if not (math.isfinite(dt_s) and dt_s > 0):
-            raise SensorError(f"observer dt_s = {dt_s!r}: must be a positive finite number")
+            raise SensorInputError(f"observer dt_s = {dt_s!r}: must be a positive finite number")
         self.model, self.kind, self.dt = model, kind, float(dt_s)
         self.k = float(gain_m6_s) if kind == "force" else 0.0
         self.gain_on_s = float(gain_on_s)
@@ -192,7 +192,7 @@ class PressureObserver:
         limit = 100.0 * q[Q_PSUP]
         for i, p in enumerate((p1, p2)):
             if not (math.isfinite(p) and abs(p) < limit):
-                raise SensorError(f"observer stopped at t = {t:.6g} s: estimated chamber pressure "
+                raise SensorInputError(f"observer stopped at t = {t:.6g} s: estimated chamber pressure "
                                   f"P_hat_{i + 1} = {p!r} Pa left its range (|P| < {limit:.3g} Pa)")
         self.pressures = (p1, p2)
         return self.pressures

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.air import AIR, Air
 from sensor.pneumatic.cylinder import Cylinder, Environment, FixedChambers
@@ -38,11 +38,11 @@ class Plant:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.supply_Pa) and self.supply_Pa > self.air.atmosphere_Pa):
-            raise SensorError(f"plant supply_Pa = {self.supply_Pa!r}: must be finite and above the "
+            raise SensorInputError(f"plant supply_Pa = {self.supply_Pa!r}: must be finite and above the "
                               f"atmosphere ({self.air.atmosphere_Pa} Pa absolute)")
         for name in ("line_1", "line_2"):
             if not hasattr(getattr(self, name), "layout"):
-                raise SensorError(f"plant {name}: must be a line model (DeadVolume, RicherHurmuzlu, "
+                raise SensorInputError(f"plant {name}: must be a line model (DeadVolume, RicherHurmuzlu, "
                                   "TwoVolume or Distributed)")
 
     def compile(self) -> "CompiledPlant":
@@ -125,13 +125,13 @@ class CompiledPlant:
         for s, p in enumerate((pressure_1_Pa, pressure_2_Pa)):
             p = atm if p is None else float(p)
             if not (math.isfinite(p) and p > 0):
-                raise SensorError(f"initial pressure_{s + 1}_Pa = {p!r}: must be a positive finite number")
+                raise SensorInputError(f"initial pressure_{s + 1}_Pa = {p!r}: must be a positive finite number")
             x[self.pressure_slice(s)] = p
         if isinstance(self.plant.actuator, Cylinder):
             stroke = self.plant.actuator.stroke_m
             z = stroke / 2.0 if position_m is None else float(position_m)
             if not 0.0 <= z <= stroke:
-                raise SensorError(f"initial position_m = {z!r}: must lie within the stroke [0, {stroke}] m")
+                raise SensorInputError(f"initial position_m = {z!r}: must lie within the stroke [0, {stroke}] m")
             x[0] = z
         return x
 
@@ -189,7 +189,7 @@ class CompiledPlant:
         Automatic: h <= min(1 / omega_max, MAX_SUBSTEP_S).  A requested ``substep_s`` above the
         stability limit 2 / omega_max raises SensorError."""
         if not (math.isfinite(dt_s) and dt_s > 0):
-            raise SensorError(f"time step dt_s = {dt_s!r}: must be a positive finite number")
+            raise SensorInputError(f"time step dt_s = {dt_s!r}: must be a positive finite number")
         wmax = self.omega_max()
         limit = STABILITY_LIMIT / wmax if wmax > 0 else math.inf
         if substep_s is None:
@@ -197,9 +197,9 @@ class CompiledPlant:
         else:
             h_target = float(substep_s)
             if not (math.isfinite(h_target) and h_target > 0):
-                raise SensorError(f"substep_s = {substep_s!r}: must be a positive finite number")
+                raise SensorInputError(f"substep_s = {substep_s!r}: must be a positive finite number")
             if h_target > limit:
-                raise SensorError(
+                raise SensorInputError(
                     f"substep_s = {h_target:.3g} s: exceeds the stability limit {limit:.3g} s of the "
                     f"segmented line (2 / omega_max, omega_max = {wmax:.4g} rad/s); use fewer segments "
                     "or a smaller substep")
@@ -213,12 +213,12 @@ class CompiledPlant:
         rest at ``mean_pressure_Pa`` with the valve shut and the inlet (valve-port) pressure
         imposed; the state matrix is diagonalised once.  Requires FixedChambers."""
         if not isinstance(self.plant.actuator, FixedChambers):
-            raise SensorError("linear_line_model needs FixedChambers as the actuator")
+            raise SensorInputError("linear_line_model needs FixedChambers as the actuator")
         line = (self.plant.line_1, self.plant.line_2)[side]
         if isinstance(line, RicherHurmuzlu):
             # its delay and attenuation act on the valve flow, outside the state equations: a
             # linearisation of the right-hand side would wrongly return 1
-            raise SensorError("linear_line_model: a RicherHurmuzlu line has no state-space "
+            raise SensorInputError("linear_line_model: a RicherHurmuzlu line has no state-space "
                               "linearisation (delay and attenuation); use its analytic response")
         nn = self.node_count(side)
         if nn < 2:

@@ -12,12 +12,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 
 
 def _nonneg(owner: str, name: str, value: float) -> None:
     if not (math.isfinite(value) and value >= 0):
-        raise SensorError(f"{owner} {name} = {value!r}: must be a finite number >= 0")
+        raise SensorInputError(f"{owner} {name} = {value!r}: must be a finite number >= 0")
 
 
 class NoisyQuantised:
@@ -56,7 +56,7 @@ class Encoder:
 
     def __init__(self, count_m: float = 1e-6) -> None:
         if not (math.isfinite(count_m) and count_m > 0):
-            raise SensorError(f"encoder count_m = {count_m!r}: must be a positive finite number")
+            raise SensorInputError(f"encoder count_m = {count_m!r}: must be a positive finite number")
         self.count_m = float(count_m)
 
     def read(self, value: float, t: float) -> float:
@@ -80,7 +80,7 @@ class DifferentiatingFilter:
 
     def __init__(self, cutoff_Hz: float, dt_s: float) -> None:
         if not (math.isfinite(cutoff_Hz) and cutoff_Hz > 0):
-            raise SensorError(f"differentiation cutoff_Hz = {cutoff_Hz!r}: must be a positive finite number")
+            raise SensorInputError(f"differentiation cutoff_Hz = {cutoff_Hz!r}: must be a positive finite number")
         wc = 2 * math.pi * cutoff_Hz
         self._a = (2 - wc * dt_s) / (2 + wc * dt_s)
         self._b = 2 * wc / (2 + wc * dt_s)
@@ -111,7 +111,7 @@ class Sensors:
         for name in ("position", "force", "pressure_valve_1", "pressure_valve_2",
                      "pressure_chamber_1", "pressure_chamber_2"):
             if not callable(getattr(getattr(self, name), "read", None)):
-                raise SensorError(f"sensor {name}: must have a read(value, t) method")
+                raise SensorInputError(f"sensor {name}: must have a read(value, t) method")
 
 
 def ideal_sensors() -> Sensors:

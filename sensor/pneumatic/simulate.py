@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 import xarray as xr
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.plant import CompiledPlant, Plant
 from sensor.pneumatic.sensors import DifferentiatingFilter, Sensors
@@ -35,18 +35,18 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     """Run the loop for ``duration_s`` and return every state, command and reading over time."""
     cp = plant if isinstance(plant, CompiledPlant) else plant.compile()
     if not (math.isfinite(duration_s) and duration_s > 0):
-        raise SensorError(f"duration_s = {duration_s!r}: must be a positive finite number")
+        raise SensorInputError(f"duration_s = {duration_s!r}: must be a positive finite number")
     if not (math.isfinite(rate_Hz) and rate_Hz > 0):
-        raise SensorError(f"rate_Hz = {rate_Hz!r}: must be a positive finite number")
+        raise SensorInputError(f"rate_Hz = {rate_Hz!r}: must be a positive finite number")
     dt = 1.0 / rate_Hz
     nsub, h = cp.substeps(dt, substep_s)
     sensors = Sensors() if sensors is None else sensors
     x = cp.initial_state() if initial_state is None else np.array(initial_state, float)
     if x.shape != (cp.n_states,):
-        raise SensorError(f"initial_state has shape {x.shape}: must be ({cp.n_states},)")
+        raise SensorInputError(f"initial_state has shape {x.shape}: must be ({cp.n_states},)")
     bad = K.first_bad(x, cp.off, cp.ps, MAX_VELOCITY_M_S)
     if bad >= 0:
-        raise SensorError(f"simulation stopped at t = 0 s: state {cp.labels[bad]} = {float(x[bad])!r} "
+        raise SensorInputError(f"simulation stopped at t = 0 s: state {cp.labels[bad]} = {float(x[bad])!r} "
                           "is not finite or outside its physical range")
     nsteps = int(round(duration_s * rate_Hz))
     delays = np.round(cp.delay_s / h).astype(int)
@@ -85,7 +85,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
         u = controller(t, dict(zip(MEASUREMENT_KEYS, m)))
         u = float(u)
         if not math.isfinite(u):
-            raise SensorError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
+            raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
         u = min(1.0, max(-1.0, u))
         commands[k] = u
         acc[:4] = 0.0
@@ -93,7 +93,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
         valve_flow[k] = acc[:2] / dt
         chamber_flow[k] = acc[2:4] / dt
         if bad >= 0:
-            raise SensorError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
+            raise SensorInputError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
                               f"{float(x[bad])!r} is not finite or outside its physical range")
     return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, nsub, h, p_valve, p_ch)
 

@@ -28,9 +28,18 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import xarray as xr
 
-from sensor.errors import SensorError
-from sensor.pneumatic.controllers import (CONTROLLERS, Impedance, LineModel, PIForce, Reference, SlidingMode,
-                                          line_model_gains, parse_reference, smc_gains)
+from sensor.errors import CapacityWarning, SensorInputError
+from sensor.pneumatic.controllers import (
+    CONTROLLERS,
+    Impedance,
+    LineModel,
+    PIForce,
+    Reference,
+    SlidingMode,
+    line_model_gains,
+    parse_reference,
+    smc_gains,
+)
 from sensor.pneumatic.cylinder import Environment, mass_spring_damper, spring_contact
 from sensor.pneumatic.lines import make_line
 from sensor.pneumatic.observer import OBSERVER_KINDS, ObserverModel, PressureObserver
@@ -41,10 +50,6 @@ from sensor.pneumatic.valve import VALVES
 
 MSE_WINDOW_S = 2.0       # thesis 5.4.2: "mean of error squares obtained in a 2-second time interval"
 OBSERVER_RATE_HZ = 10.0  # correction pole at mid-stroke (k of eq 22 from it)
-
-
-class CapacityWarning(UserWarning):
-    """A reference asks for more force than the actuator (or sensor) can give."""
 
 
 @dataclass(frozen=True)
@@ -73,13 +78,13 @@ class Setup:
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
-            raise SensorError(f"controller = {self.controller!r}: must be one of {', '.join(CONTROLLERS)}")
+            raise SensorInputError(f"controller = {self.controller!r}: must be one of {', '.join(CONTROLLERS)}")
         if self.observer not in OBSERVER_KINDS:
-            raise SensorError(f"observer = {self.observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
+            raise SensorInputError(f"observer = {self.observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
         if self.valve not in VALVES:
-            raise SensorError(f"valve = {self.valve!r}: must be one of {', '.join(VALVES)}")
+            raise SensorInputError(f"valve = {self.valve!r}: must be one of {', '.join(VALVES)}")
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
-            raise SensorError(f"duration = {self.duration_s!r} s: must be a positive finite number")
+            raise SensorInputError(f"duration = {self.duration_s!r} s: must be a positive finite number")
 
     @property
     def ref(self) -> Reference:
@@ -124,7 +129,7 @@ def make_controller(setup: Setup, model: ObserverModel, dt_s: float, plant: Plan
             return SlidingMode(model, ref, obs, dt_s, impedance=imp, **gains)
         return LineModel(model, ref, obs, dt_s, **gains)
     except TypeError as exc:
-        raise SensorError(f"controller {setup.controller!r} gains {sorted(gains)}: {exc}") from None
+        raise SensorInputError(f"controller {setup.controller!r} gains {sorted(gains)}: {exc}") from None
 
 
 def check_capacity(setup: Setup, model: ObserverModel) -> list[str]:
@@ -188,7 +193,7 @@ def metrics(ds: xr.Dataset, reference: Reference) -> dict:
     kPa^2, over the steady window; MSE_2 (virtual input) for the line-model controller."""
     w = ds.sel(time=window(ds, reference))
     if w.sizes["time"] < 2:
-        raise SensorError(f"duration {float(ds.time[-1]):.4g} s: too short for the MSE window "
+        raise SensorInputError(f"duration {float(ds.time[-1]):.4g} s: too short for the MSE window "
                           f"(a step at {reference.step_s:g} s needs a longer run)")
     w = w.isel(time=slice(0, -1)) if np.isnan(w.desired_force_N.values[-1]) else w
     e = w.desired_force_N - w.environment_force
@@ -225,7 +230,7 @@ class DacmForceSensor:
         elif source.endswith(".toml"):
             design = load_design(Path(source))
         else:
-            raise SensorError(f"sensor = {source!r}: must be a preset ({', '.join(PRESETS)}) or a .toml design file")
+            raise SensorInputError(f"sensor = {source!r}: must be a preset ({', '.join(PRESETS)}) or a .toml design file")
         self.model = build_sensor(design, overload="saturate")
         self.sheet = datasheet(self.model)
         self.name = self.model.name

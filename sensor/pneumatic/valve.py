@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError
 from sensor.pneumatic.air import AIR, Air
 
 LAMINAR_RATIO = 0.999  # ISO 6358-2:2013 laminar-region pressure ratio
@@ -77,7 +77,7 @@ def port_flow(u, grid, c_sup, c_exh, b, r_lam, p_supply, p_port, p_atm, k_ref):
 
 def _positive(name: str, value: float) -> float:
     if not (math.isfinite(value) and value > 0):
-        raise SensorError(f"{name} = {value!r}: must be a positive finite number")
+        raise SensorInputError(f"{name} = {value!r}: must be a positive finite number")
     return float(value)
 
 
@@ -85,7 +85,7 @@ def _positive(name: str, value: float) -> float:
 def _check_command(u) -> None:
     """A valve command must be a finite number in [-1, 1] (the spool's full travel)."""
     if not (np.isfinite(u) and -1.0 <= u <= 1.0):
-        raise SensorError(f"valve command u = {u!r}: must lie in [-1, 1] (full spool travel)")
+        raise SensorInputError(f"valve command u = {u!r}: must lie in [-1, 1] (full spool travel)")
 
 @dataclass(frozen=True)
 class Valve:
@@ -108,15 +108,15 @@ class Valve:
     def __post_init__(self) -> None:
         u = np.asarray(self.command, float)
         if u.ndim != 1 or u.size < 2 or np.any(np.diff(u) <= 0):
-            raise SensorError(f"valve command grid = {self.command!r}: must be strictly increasing, 2+ points")
+            raise SensorInputError(f"valve command grid = {self.command!r}: must be strictly increasing, 2+ points")
         if u[0] < -1 - 1e-12 or u[-1] > 1 + 1e-12:
-            raise SensorError(f"valve command grid spans [{u[0]}, {u[-1]}]: must lie within [-1, 1]")
+            raise SensorInputError(f"valve command grid spans [{u[0]}, {u[-1]}]: must lie within [-1, 1]")
         for name in ("supply_conductance", "exhaust_conductance"):
             c = np.asarray(getattr(self, name), float)
             if c.shape != u.shape or not np.all(np.isfinite(c)) or np.any(c < 0):
-                raise SensorError(f"valve {name}: must be {u.size} finite values >= 0 (m^3/(s Pa))")
+                raise SensorInputError(f"valve {name}: must be {u.size} finite values >= 0 (m^3/(s Pa))")
         if not 0.0 <= self.critical_ratio < self.laminar_ratio < 1.0:
-            raise SensorError(
+            raise SensorInputError(
                 f"valve critical_ratio = {self.critical_ratio!r}, laminar_ratio = {self.laminar_ratio!r}:"
                 " need 0 <= b < r_lam < 1")
 
@@ -133,7 +133,7 @@ class Valve:
     def conductances(self, u: float, port: int = 1) -> tuple[float, float]:
         """(supply, exhaust) sonic conductance of port 1 or 2 at command u in [-1, 1]."""
         if port not in (1, 2):
-            raise SensorError(f"valve port = {port!r}: must be 1 or 2")
+            raise SensorInputError(f"valve port = {port!r}: must be 1 or 2")
         _check_command(u)
         grid, cs, ce = self.arrays()
         uu = float(u) * (1.0 if port == 1 else -1.0)
@@ -164,7 +164,7 @@ class Valve:
         calibration, for controllers that compute a conductance, eq 51)."""
         grid, cs, _ = self.arrays()
         if not (0 <= conductance <= cs.max()):
-            raise SensorError(f"conductance = {conductance!r}: must lie in [0, {cs.max():.3e}] m^3/(s Pa)")
+            raise SensorInputError(f"conductance = {conductance!r}: must lie in [0, {cs.max():.3e}] m^3/(s Pa)")
         c = np.maximum.accumulate(cs)
         i = int(np.searchsorted(c, conductance))
         if i == 0 or c[i] == c[i - 1]:

@@ -29,8 +29,15 @@ import numpy as np
 from scipy.constants import e as Q_E
 from scipy.constants import k as K_B
 
-from sensor.readout.optics import (OpticsError, OpticsSetup, _finite, _require,
-                           reference_photocurrent_A, signal_photocurrent_A, voltage_slope)
+from sensor.errors import OpticsError
+from sensor.readout.optics import (
+    OpticsSetup,
+    _finite,
+    _require,
+    reference_photocurrent_A,
+    signal_photocurrent_A,
+    voltage_slope,
+)
 
 READOUTS = ("direct", "ratio")
 

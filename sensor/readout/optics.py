@@ -44,14 +44,10 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.integrate import quad
 
-from sensor.errors import SensorError
+from sensor.errors import OpticsError
 
 MODELS = ("geometric", "gaussian")
 LINES = ("best_fit", "endpoint")
-
-
-class OpticsError(SensorError):
-    """An optics input breaks its rule (the message names parameter, value and rule)."""
 
 
 def _require(ok: bool, name: str, value, rule: str) -> None:

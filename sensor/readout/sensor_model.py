@@ -41,23 +41,19 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 
 from geometry.params import Design
 from geometry.topology import build_beam_model
-from sensor.errors import SensorError
+from sensor.errors import SensorInputError, SensorRangeError, SolverError
 from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw, hysteresis
+from sensor.mechanics.solver import SolverOptions, solve
 from sensor.readout.noise import READOUTS, noise_rms_V
 from sensor.readout.optics import MODELS, OpticsSetup, output_voltage
-from sensor.mechanics.solver import SolverError, SolverOptions, solve
 
 OVERLOADS = ("raise", "saturate")
 GAP_TABLE_POINTS = 241  # cubic spline of V(gap): error < 1e-6 V, under 1/300 of a 16-bit code
 
 
-class SensorRangeError(SensorError):
-    """A force the sensor cannot read (NaN, negative, beyond range) or a setup it cannot hold."""
-
-
 def _require(ok: bool, name: str, value, rule: str) -> None:
     if not ok:
-        raise SensorError(f"{name} = {value!r}: must be {rule}")
+        raise SensorInputError(f"{name} = {value!r}: must be {rule}")
 
 
 def _real(value) -> bool:
@@ -293,7 +289,7 @@ def _checked_forces(forces_N, range_N: float, overload: str) -> tuple[np.ndarray
 def _analog(sensor: Transducer, forces_N, rng, state):
     """Force history -> (forces, travel, gap, analog volts, clipped), final memory state."""
     if rng is not None and not isinstance(rng, np.random.Generator):
-        raise SensorError(f"rng = {rng!r}: must be a numpy.random.Generator or None")
+        raise SensorInputError(f"rng = {rng!r}: must be a numpy.random.Generator or None")
     f, clipped = _checked_forces(forces_N, sensor.range_N, sensor.overload)
     s = f / sensor.range_N
     mu = 2.0 * sensor.hysteresis
@@ -347,7 +343,7 @@ def fit_calibration(forces_N, volts, method: str = "curve") -> Calibration:
     a, b = np.polynomial.polynomial.polyfit(v, f, 1)
     mid = 0.5 * (v[:n] + v[n - 1:][::-1])
     if np.any(np.diff(mid) <= 0):
-        raise SensorError("the calibration cycle's volts do not rise with the force at every "
+        raise SensorInputError("the calibration cycle's volts do not rise with the force at every "
                           "point: the sensor's output is not monotone over its range")
     return Calibration(float(a), float(b), mid, f[:n].copy(), method)
 
@@ -505,7 +501,7 @@ def cross_axis(design: Design, imposed_travel_mm: float) -> CrossAxis:
         try:
             r = solve(driven, target_output_mm=imposed_travel_mm, options=SolverOptions(increments=8))
         except SolverError as exc:
-            raise SensorError(f"imposed_travel_mm = {imposed_travel_mm!r}: the body cannot be "
+            raise SensorInputError(f"imposed_travel_mm = {imposed_travel_mm!r}: the body cannot be "
                               f"driven that far along {direction}: {exc}") from None
         travel = float((r.deformed_nodes[mirror] - model.nodes[mirror]) @ axis)
         return travel, r.input_force_N, float(np.degrees(r.node_rotation_rad[mirror]))

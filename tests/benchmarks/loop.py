@@ -12,8 +12,13 @@ import math
 import os
 import time
 
-from sensor.pneumatic.studies import Setup, build_plant, controller_study, make_controller
 from sensor.pneumatic.observer import ObserverModel
+from sensor.pneumatic.studies import (
+    Setup,
+    build_plant,
+    controller_study,
+    make_controller,
+)
 
 
 def step_cost(controller: str, n: int = 20000) -> float:

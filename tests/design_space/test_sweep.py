@@ -7,7 +7,8 @@ import xarray as xr
 from scipy.stats import spearmanr
 
 from sensor.cli import main
-from sensor.design_space.sweep import Grid, SweepError, SweepSpec, load_dataset, run_sweep
+from sensor.design_space.sweep import Grid, SweepSpec, load_dataset, run_sweep
+from sensor.errors import SweepError
 
 TREND_SPEC = SweepSpec(phi1=Grid(6, 31, 21), phi2=Grid(4, 56, 21))
 SMALL = SweepSpec(hinge_sets=("05-03",), phi1=Grid(12, 28, 4), phi2=Grid(8, 48, 5))

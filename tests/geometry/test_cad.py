@@ -10,9 +10,19 @@ import cadquery as cq
 import numpy as np
 import pytest
 
-from geometry.cad import (chord_length_mm, face_loops, flatten_loop, hinge_neck_mm,
-                          hole_count, lean_from_vertical_deg, link_direction, offset_face,
-                          perimeter_mm, profile_face, rise_above_horizontal_deg)
+from geometry.cad import (
+    chord_length_mm,
+    face_loops,
+    flatten_loop,
+    hinge_neck_mm,
+    hole_count,
+    lean_from_vertical_deg,
+    link_direction,
+    offset_face,
+    perimeter_mm,
+    profile_face,
+    rise_above_horizontal_deg,
+)
 from geometry.errors import GeometryError
 from geometry.layout import make_layout, make_parts
 from geometry.params import make_design, preset

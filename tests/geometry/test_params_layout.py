@@ -8,9 +8,21 @@ import pytest
 from geometry.checks import RULES, assert_feasible, check_design, phi1_limit_deg
 from geometry.errors import GeometryError, InfeasibleDesignError, ParameterError
 from geometry.layout import kinematic_amplification, make_layout, make_parts
-from geometry.params import (PRESETS, TABLE7_HINGES, Design, load_design, make_design, preset,
-                             save_design)
-from geometry.topology import build_beam_model, load_model, model_from_dict, model_to_dict
+from geometry.params import (
+    PRESETS,
+    TABLE7_HINGES,
+    Design,
+    load_design,
+    make_design,
+    preset,
+    save_design,
+)
+from geometry.topology import (
+    build_beam_model,
+    load_model,
+    model_from_dict,
+    model_to_dict,
+)
 
 MIRROR = np.array([-1.0, 1.0])
 

@@ -3,8 +3,15 @@
 import numpy as np
 import pytest
 
-from sensor.mechanics.hysteresis import (DEFAULT_LAW, TABLE6, HysteresisError, StrainEnergyLaw, hysteresis,
-                               hysteresis_from_csv, quality)
+from sensor.errors import HysteresisError
+from sensor.mechanics.hysteresis import (
+    DEFAULT_LAW,
+    TABLE6,
+    StrainEnergyLaw,
+    hysteresis,
+    hysteresis_from_csv,
+    quality,
+)
 
 
 def loop(h=0.05, n=200, k=3.0, x_max=1.0):

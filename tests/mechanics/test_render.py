@@ -8,8 +8,14 @@ from geometry.layout import Part, bar, make_layout, make_parts
 from geometry.params import preset
 from geometry.topology import BeamModel, build_beam_model
 from sensor.cli import main
-from sensor.mechanics.render import (auto_scale, body_mesh, displacement_field,
-                           member_strain_energy, part_motions, strain_energy_density)
+from sensor.mechanics.render import (
+    auto_scale,
+    body_mesh,
+    displacement_field,
+    member_strain_energy,
+    part_motions,
+    strain_energy_density,
+)
 from sensor.mechanics.solver import solve
 
 

@@ -8,9 +8,14 @@ from scipy.special import ellipe, ellipeinc, ellipk, ellipkinc
 from geometry.layout import kinematic_amplification
 from geometry.params import preset
 from geometry.topology import BeamModel, build_beam_model
-from sensor.mechanics.solver import (SHEAR_FORM_FACTOR, ConvergenceError, InstabilityError,
-                           SingularSystemError, SnapThroughError, SolverOptions,
-                           UnreachableTargetError, solve, solve_batch)
+from sensor.errors import (
+    ConvergenceError,
+    InstabilityError,
+    SingularSystemError,
+    SnapThroughError,
+    UnreachableTargetError,
+)
+from sensor.mechanics.solver import SHEAR_FORM_FACTOR, SolverOptions, solve, solve_batch
 
 E, NU = 2000.0, 0.3
 CLAMP = ("x", "y", "rz")

@@ -22,7 +22,6 @@ single-element solver agrees within 0.3 % everywhere.
 """
 
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,9 +31,13 @@ from scipy.optimize import brentq
 from geometry.params import PRESETS, preset
 from geometry.topology import BeamModel, build_beam_model
 from sensor.mechanics.solver import solve
-
-from tests.mechanics.frame_reference import (discretise, hessian, potential, solve_dead_load,
-                                             split_members)
+from tests.mechanics.frame_reference import (
+    discretise,
+    hessian,
+    potential,
+    solve_dead_load,
+    split_members,
+)
 
 N_REF = 32          # reference segments per compliant member (refinement study below)
 REQUIREMENT = 0.02  # issue 3: A and k_out within 2 %

@@ -9,12 +9,28 @@ import numpy as np
 import pytest
 
 from sensor.errors import SensorError
-from sensor.pneumatic.controllers import (Impedance, calibration_inverse, command_for, line_dynamics, line_model_gains,
-                                          parse_reference, sat, smc_conductance, smc_gains)
-from sensor.pneumatic.studies import Setup, build_plant, metrics, run
+from sensor.pneumatic.controllers import (
+    Impedance,
+    calibration_inverse,
+    command_for,
+    line_dynamics,
+    line_model_gains,
+    parse_reference,
+    sat,
+    smc_conductance,
+    smc_gains,
+)
 from sensor.pneumatic.lines import DeadVolume
-from sensor.pneumatic.observer import Q_A1, Q_A2, Q_RT, ObserverModel, PressureObserver, volumes
+from sensor.pneumatic.observer import (
+    Q_A1,
+    Q_A2,
+    Q_RT,
+    ObserverModel,
+    PressureObserver,
+    volumes,
+)
 from sensor.pneumatic.plant import Plant
+from sensor.pneumatic.studies import Setup, build_plant, metrics, run
 from sensor.pneumatic.valve import ENFIELD_LH05, FESTO_MPYE
 
 

@@ -10,8 +10,15 @@ from sensor.errors import SensorError
 from sensor.pneumatic.air import AIR, Air
 from sensor.pneumatic.bergh_tijdeman import bergh_tijdeman
 from sensor.pneumatic.cylinder import FixedChambers
-from sensor.pneumatic.lines import (DeadVolume, Distributed, RicherHurmuzlu, TwoVolume, attenuation_factor,
-                                    make_line, tube_resistance)
+from sensor.pneumatic.lines import (
+    DeadVolume,
+    Distributed,
+    RicherHurmuzlu,
+    TwoVolume,
+    attenuation_factor,
+    make_line,
+    tube_resistance,
+)
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import ideal_sensors
 from sensor.pneumatic.simulate import constant_command, simulate

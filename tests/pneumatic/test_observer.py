@@ -8,8 +8,22 @@ from scipy.integrate import solve_ivp
 from sensor.errors import SensorError
 from sensor.pneumatic.cylinder import Cylinder, mass_spring_damper
 from sensor.pneumatic.lines import DeadVolume
-from sensor.pneumatic.observer import (Q_A1, Q_A2, Q_BCRIT, Q_KREF, Q_PATM, Q_PSUP, Q_RLAM, Q_RT, ObserverModel,
-                                       PressureObserver, actuator_force, correction, observer_rhs, volumes)
+from sensor.pneumatic.observer import (
+    Q_A1,
+    Q_A2,
+    Q_BCRIT,
+    Q_KREF,
+    Q_PATM,
+    Q_PSUP,
+    Q_RLAM,
+    Q_RT,
+    ObserverModel,
+    PressureObserver,
+    actuator_force,
+    correction,
+    observer_rhs,
+    volumes,
+)
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import ideal_sensors
 from sensor.pneumatic.simulate import simulate

@@ -6,7 +6,12 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from sensor.errors import SensorError
-from sensor.pneumatic.cylinder import Cylinder, FixedChambers, mass_spring_damper, spring_contact
+from sensor.pneumatic.cylinder import (
+    Cylinder,
+    FixedChambers,
+    mass_spring_damper,
+    spring_contact,
+)
 from sensor.pneumatic.lines import DeadVolume, Distributed, TwoVolume
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import Encoder, Sensors, ideal_sensors

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from scipy.constants import e as Q_E
 
+from sensor.errors import OpticsError
 from sensor.readout.noise import READOUTS, noise_budget, noise_rms_V, sample_output
-from sensor.readout.optics import OpticsError, OpticsSetup, output_voltage
+from sensor.readout.optics import OpticsSetup, output_voltage
 
 SETUP = OpticsSetup()
 # A noisier source (-100 dB/Hz) makes the source term dominate the direct readout.

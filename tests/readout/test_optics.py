@@ -5,10 +5,19 @@ import math
 import numpy as np
 import pytest
 
-from sensor.errors import SensorError
-from sensor.readout.optics import (LINES, MODELS, OpticsError, OpticsSetup, _line_deviation,
-                           collected_power, collection_efficiency, linearity,
-                           output_voltage, voltage_slope, working_range)
+from sensor.errors import OpticsError, SensorError
+from sensor.readout.optics import (
+    LINES,
+    MODELS,
+    OpticsSetup,
+    _line_deviation,
+    collected_power,
+    collection_efficiency,
+    linearity,
+    output_voltage,
+    voltage_slope,
+    working_range,
+)
 
 SETUP = OpticsSetup()
 

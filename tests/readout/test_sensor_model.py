@@ -10,13 +10,21 @@ import pytest
 from geometry.params import preset
 from geometry.topology import build_beam_model
 from sensor.cli import main
-from sensor.errors import SensorError
+from sensor.errors import SensorError, SensorRangeError
 from sensor.mechanics.hysteresis import TABLE6, StrainEnergyLaw, hysteresis
+from sensor.mechanics.solver import SolverOptions, solve
 from sensor.readout.noise import noise_rms_V
 from sensor.readout.optics import OpticsSetup
-from sensor.readout.sensor_model import (VIRGIN, Readout, SensorRangeError, build_sensor, cross_axis,
-                                 datasheet, loading_cycle, preisach_offset, preisach_update)
-from sensor.mechanics.solver import SolverOptions, solve
+from sensor.readout.sensor_model import (
+    VIRGIN,
+    Readout,
+    build_sensor,
+    cross_axis,
+    datasheet,
+    loading_cycle,
+    preisach_offset,
+    preisach_update,
+)
 
 SPECIMENS = ("basis", "sample-a", "sample-b")
 NO_HYSTERESIS = StrainEnergyLaw(0.0, "none")
