@@ -19,12 +19,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 from geometry.atomic import save_figure  # noqa: E402
 from geometry.params import MATERIALS, preset  # noqa: E402
 from sensor.mechanics.hysteresis import TABLE6  # noqa: E402
-from sensor.readout.sensor_model import (  # noqa: E402
-    build_sensor,
-    cross_axis,
-    datasheet,
-    loading_cycle,
-)
+from sensor.readout.datasheet import cross_axis, datasheet  # noqa: E402
+from sensor.readout.sensor_model import build_sensor, loading_cycle  # noqa: E402
 
 SPECIMENS = ("basis", "sample-a", "sample-b")
 

@@ -40,14 +40,18 @@ def atomic_path(path: str | os.PathLike):
 
 def save_figure(fig, path: str | os.PathLike, dpi: int = 110, close: bool = True,
                 **savefig_kwargs) -> Path:
-    """Write a matplotlib figure atomically (format from the suffix); close it unless told."""
-    import matplotlib.pyplot as plt
+    """Write a matplotlib figure atomically (format from the suffix).
 
+    Figures made with ``matplotlib.figure.Figure`` need no closing; a figure that pyplot
+    manages is closed after writing unless ``close`` is False.
+    """
     target = Path(path)
     try:
         with atomic_path(target) as tmp:
             fig.savefig(tmp, format=target.suffix.lstrip(".") or "png", dpi=dpi, **savefig_kwargs)
     finally:
-        if close:
+        if close and getattr(fig.canvas, "manager", None) is not None:
+            import matplotlib.pyplot as plt
+
             plt.close(fig)
     return target

@@ -48,86 +48,14 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _plot_intensity(sensor, ds, tolerance_pct: float, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from geometry.atomic import save_figure
-    from sensor.readout.optics import linearity, output_voltage, working_range
-
-    model = sensor.readout.model
-    gaps = np.linspace(0.0, 3.0, 301)
-    wr = working_range(sensor.optics, tolerance_pct, model, step_mm=0.01)
-    used = linearity(ds.gap_min_mm, ds.gap_max_mm, sensor.optics, model, step_mm=0.005)
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    ax.plot(gaps, output_voltage(gaps, sensor.optics, model), color="k", lw=1.5,
-            label=f"{model} model, NA {sensor.optics.numerical_aperture:g}, "
-                  f"core {sensor.optics.core_diameter_mm:g} mm")
-    ax.axvspan(wr.gap_lo_mm, wr.gap_hi_mm, color="tab:green", alpha=0.15,
-               label=f"widest within {tolerance_pct:g} % FS: {wr.gap_lo_mm:.2f}-{wr.gap_hi_mm:.2f} mm")
-    for x in (ds.gap_min_mm, ds.gap_max_mm):
-        ax.axvline(x, color="tab:red", ls="--", lw=1)
-    ax.plot([], [], color="tab:red", ls="--",
-            label=f"sensor range {ds.gap_min_mm:.2f}-{ds.gap_max_mm:.2f} mm: "
-                  f"{used.nonlinearity_pct:.1f} % FS nonlinear")
-    ax.set(xlabel="mirror-fiber gap (mm)", ylabel="output voltage (V)",
-           title=f"{sensor.name}: intensity vs gap (cf. thesis Figure 62)")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, path)
-
-
-def _plot_calibration(sensor, ds, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    from geometry.atomic import save_figure
-    from sensor.readout.sensor_model import loading_cycle
-
-    cal = sensor.calibration
-    n = len(cal.force_table)
-    forces = loading_cycle(sensor.range_N, n)
-    r = sensor.read(forces)
-    fig, (ax, ax_err) = plt.subplots(1, 2, figsize=(10, 4.2))
-    ax.plot(r.force_N[:n], r.volts[:n], color="tab:blue", label="loading")
-    ax.plot(r.force_N[n - 1:], r.volts[n - 1:], color="tab:red", label="unloading")
-    f = np.array([0.0, sensor.range_N])
-    ax.plot(f, (f - cal.intercept_N) / cal.slope_N_per_V, "k--", lw=1,
-            label=f"least squares: {ds.sensitivity_mV_per_N:.1f} mV/N")
-    ax.set(xlabel="applied force (N)", ylabel="sensor output (V)",
-           title=f"{sensor.name}: calibration (cf. thesis Figures 43, 45)")
-    ax.text(0.97, 0.05, f"hysteresis {ds.hysteresis_pct:.2f} % FS\n"
-                        f"nonlinearity {ds.nonlinearity_pct:.1f} % FS",
-            transform=ax.transAxes, ha="right", va="bottom", fontsize=9)
-    ax.legend(fontsize=8, loc="upper left")
-    err = 1e3 * (r.newtons - r.force_N)
-    ax_err.plot(r.force_N[:n], err[:n], color="tab:blue", label="loading")
-    ax_err.plot(r.force_N[n - 1:], err[n - 1:], color="tab:red", label="unloading")
-    ax_err.axhline(0.0, color="k", lw=0.6)
-    ax_err.set(xlabel="applied force (N)", ylabel="reading - applied (mN)",
-               title=f"reading error ({cal.method} calibration, {ds.adc_bits}-bit ADC)")
-    ax_err.legend(fontsize=8)
-    fig.tight_layout()
-    save_figure(fig, path)
-
-
 def run(args: argparse.Namespace) -> int:
+    from geometry.atomic import save_figure
     from geometry.checks import assert_feasible
     from sensor.errors import UsageError
+    from sensor.readout.datasheet import cross_axis, datasheet
     from sensor.readout.optics import OpticsSetup
-    from sensor.readout.sensor_model import (
-        CALIBRATIONS,
-        Readout,
-        build_sensor,
-        cross_axis,
-        datasheet,
-    )
+    from sensor.readout.plots import calibration_figure, intensity_figure
+    from sensor.readout.sensor_model import CALIBRATIONS, Readout, build_sensor
 
     design = design_from_args(args)
     assert_feasible(design)
@@ -137,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     optics = OpticsSetup() if args.na is None else OpticsSetup(numerical_aperture=args.na)
     readout = Readout(sample_rate_Hz=args.sample_rate, adc_bits=args.adc_bits,
                       adc_min_V=args.adc_range[0], adc_max_V=args.adc_range[1],
-                      readout=args.readout, model=args.optics_model)
+                      mode=args.readout, model=args.optics_model)
     if not args.tolerance > 0:
         raise UsageError(f"--tolerance = {args.tolerance!r}: must be a positive number (%)")
     sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
@@ -148,8 +76,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_plots:
         args.out.mkdir(parents=True, exist_ok=True)
         files = [args.out / f"{design.name}-intensity.png", args.out / f"{design.name}-calibration.png"]
-        _plot_intensity(sensor, ds, args.tolerance, files[0])
-        _plot_calibration(sensor, ds, files[1])
+        save_figure(intensity_figure(sensor, ds, args.tolerance), files[0])
+        save_figure(calibration_figure(sensor, ds), files[1])
     if args.json:
         print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
                           "files": [str(f) for f in files]}, indent=1))

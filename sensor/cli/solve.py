@@ -37,6 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from geometry.topology import build_beam_model, load_model
     from sensor.errors import UsageError
     from sensor.mechanics.hysteresis import DEFAULT_LAW
+    from sensor.mechanics.qualifiers import qualify
     from sensor.mechanics.solver import SolverOptions, solve
 
     if args.increments < 1:
@@ -54,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
         a_kin = kinematic_amplification(design.phi1_deg, design.phi2_deg)
     r = solve(model, target_output_mm=args.target_output, target_force_N=args.target_force,
               options=SolverOptions(increments=args.increments))
-    h = float(DEFAULT_LAW.predict(r.strain_energy_mJ))
+    q = qualify(r, DEFAULT_LAW)
     out = {
         "design": name,
         "amplification": r.amplification,
@@ -65,8 +66,9 @@ def run(args: argparse.Namespace) -> int:
         "input_force_N": r.input_force_N,
         "input_travel_mm": r.input_travel_mm,
         "output_travel_mm": r.output_travel_mm,
-        "hysteresis_predicted": h,
-        "quality_mm_per_N": r.sensitivity_mm_per_N / h,
+        "range_N": q.range_N,
+        "hysteresis_predicted": q.hysteresis,
+        "quality_mm_per_N": q.quality_mm_per_N,
         "increments": r.increments,
         "residual": r.residual,
         "converged": r.converged,
@@ -81,9 +83,9 @@ def run(args: argparse.Namespace) -> int:
             ("strain energy SE", f"{r.strain_energy_mJ:.4f} mJ"),
             ("input force / travel", f"{r.input_force_N:.4f} N / {r.input_travel_mm:.4f} mm"),
             ("output travel", f"{r.output_travel_mm:.4f} mm"),
-            ("predicted hysteresis H", f"{h:.4f}  ({DEFAULT_LAW.h_per_mJ:.4f} per mJ, "
+            ("predicted hysteresis H", f"{q.hysteresis:.4f}  ({DEFAULT_LAW.h_per_mJ:.4f} per mJ, "
                                        f"calibrated on the {DEFAULT_LAW.calibrated_on} specimen)"),
-            ("quality sensitivity / H", f"{r.sensitivity_mm_per_N / h:.3f} mm/N"),
+            ("quality sensitivity / H", f"{q.quality_mm_per_N:.3f} mm/N"),
             ("increments / residual", f"{r.increments} / {r.residual:.1e} (converged)"),
             ("hinge rotations", ", ".join(f"{k}: {v:+.2f}" for k, v in r.hinge_rotation_deg.items()) + " deg")]
     print(f"{name}")

@@ -126,3 +126,38 @@ DEFAULT_LAW = StrainEnergyLaw.calibrate("basis")
 def quality(sensitivity_mm_per_N, hysteresis_fraction):
     """Overall quality ("SNR" of Table 6) = sensitivity / hysteresis, mm/N."""
     return np.asarray(sensitivity_mm_per_N, dtype=float) / np.asarray(hysteresis_fraction, dtype=float)
+
+
+# --- rate-independent loops: Preisach model with a uniform weight ----------------------------
+
+#: Memory of a virgin (never loaded) body: turning points (0,) and the current input 0.
+VIRGIN = (0.0, 0.0)
+
+
+def preisach_update(state: tuple[float, ...], s: float) -> tuple[float, ...]:
+    """New memory after the normalised input moves to ``s`` (0..1).
+
+    ``state`` = (p_0 = 0, p_1, ..., p_k, u): alternating turning points (minima at even
+    index, maxima at odd) and the current input u. A reversal pushes u; passing the older
+    extremum of the last pair wipes that pair out (Preisach wiping-out property).
+    """
+    *pts, u = state
+    if s == u:
+        return state
+    rising = s > u
+    if rising != (len(pts) % 2 == 1):           # the last segment ran the other way
+        pts.append(u)
+    while len(pts) >= 3 and (s >= pts[-2] if rising else s <= pts[-2]):
+        del pts[-2:]
+    if len(pts) == 2 and s <= pts[0]:           # back down to the unloaded state
+        del pts[1:]
+    return (*pts, s)
+
+
+def preisach_offset(state: tuple[float, ...], mu: float) -> float:
+    """h = P - mu (u - 1/2), fraction of full-scale travel, of a memory state."""
+    total = -0.5 * mu
+    for j in range(1, len(state)):
+        d = state[j] - state[j - 1]
+        total += mu * d * d if j % 2 == 1 else -mu * d * d
+    return total - mu * (state[-1] - 0.5)

@@ -17,6 +17,7 @@ from geometry.params import preset
 from geometry.topology import build_beam_model
 from sensor.errors import SensorInputError
 from sensor.mechanics.hysteresis import DEFAULT_LAW, TABLE6, StrainEnergyLaw
+from sensor.mechanics.qualifiers import qualify
 from sensor.mechanics.solver import solve
 
 
@@ -67,9 +68,9 @@ def table6_comparison(law: StrainEnergyLaw = DEFAULT_LAW) -> list[Table6Row]:
     for name in ("basis", "sample-a", "sample-b"):
         r = solve(build_beam_model(preset(f"{name}-as-cut")))
         t = TABLE6[name]
-        h = float(law.predict(r.strain_energy_mJ))
-        rows.append(Table6Row(name, r.amplification, thesis_amplification(name),
-                              r.sensitivity_mm_per_N, t.sensitivity_model_mm_per_N,
-                              r.strain_energy_mJ, t.strain_energy_model_mJ, h, t.hysteresis,
-                              r.sensitivity_mm_per_N / h, t.quality))
+        q = qualify(r, law)
+        rows.append(Table6Row(name, q.amplification, thesis_amplification(name),
+                              q.sensitivity_mm_per_N, t.sensitivity_model_mm_per_N,
+                              q.strain_energy_mJ, t.strain_energy_model_mJ, q.hysteresis,
+                              t.hysteresis, q.quality_mm_per_N, t.quality))
     return rows

@@ -223,7 +223,8 @@ class DacmForceSensor:
         from pathlib import Path
 
         from geometry.params import PRESETS, load_design, preset
-        from sensor.readout.sensor_model import build_sensor, datasheet
+        from sensor.readout.datasheet import datasheet
+        from sensor.readout.sensor_model import build_sensor
 
         if source in PRESETS:
             design = preset(source)

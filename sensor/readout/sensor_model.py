@@ -33,7 +33,6 @@ to the range and flagged ``saturated`` with ``overload="saturate"``; NaN always 
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,23 +40,22 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 
 from geometry.params import Design
 from geometry.topology import build_beam_model
-from sensor.errors import SensorInputError, SensorRangeError, SolverError
-from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw, hysteresis
+from sensor.errors import SensorInputError, SensorRangeError
+from sensor.mechanics.hysteresis import (
+    DEFAULT_LAW,
+    VIRGIN,
+    StrainEnergyLaw,
+    preisach_offset,
+    preisach_update,
+)
+from sensor.mechanics.qualifiers import qualify
 from sensor.mechanics.solver import SolverOptions, solve
 from sensor.readout.noise import READOUTS, noise_rms_V
 from sensor.readout.optics import MODELS, OpticsSetup, output_voltage
+from sensor.validation import is_integer, is_real, require
 
 OVERLOADS = ("raise", "saturate")
 GAP_TABLE_POINTS = 241  # cubic spline of V(gap): error < 1e-6 V, under 1/300 of a 16-bit code
-
-
-def _require(ok: bool, name: str, value, rule: str) -> None:
-    if not ok:
-        raise SensorInputError(f"{name} = {value!r}: must be {rule}")
-
-
-def _real(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 @dataclass(frozen=True)
@@ -67,7 +65,7 @@ class Readout:
     sample_rate_Hz: 1 kHz; the noise bandwidth is f_s / 2.
     adc_bits, adc_min_V, adc_max_V: NI USB-6221 (thesis 6.1.3.2): 16 bits on +/-10 V,
         a 305 uV step.
-    readout: "ratio" (signal / reference photodiode, cancels source drift) or "direct".
+    mode: "ratio" (signal / reference photodiode, cancels source drift) or "direct".
     model: intensity model of :mod:`sensor.readout.optics`, "geometric" or "gaussian".
     """
 
@@ -75,20 +73,19 @@ class Readout:
     adc_bits: int = 16
     adc_min_V: float = -10.0
     adc_max_V: float = 10.0
-    readout: str = "ratio"
+    mode: str = "ratio"
     model: str = "geometric"
 
     def __post_init__(self) -> None:
-        _require(_real(self.sample_rate_Hz) and self.sample_rate_Hz > 0, "sample_rate_Hz",
+        require(is_real(self.sample_rate_Hz) and self.sample_rate_Hz > 0, "sample_rate_Hz",
                  self.sample_rate_Hz, "a finite number > 0 (Hz)")
-        _require(isinstance(self.adc_bits, (int, np.integer)) and not isinstance(self.adc_bits, bool)
-                 and 1 <= self.adc_bits <= 32, "adc_bits", self.adc_bits, "an integer in 1..32")
+        require(is_integer(self.adc_bits) and 1 <= self.adc_bits <= 32, "adc_bits", self.adc_bits, "an integer in 1..32")
         for name in ("adc_min_V", "adc_max_V"):
-            _require(_real(getattr(self, name)), name, getattr(self, name), "a finite number (V)")
-        _require(self.adc_max_V > self.adc_min_V, "adc_max_V", self.adc_max_V,
+            require(is_real(getattr(self, name)), name, getattr(self, name), "a finite number (V)")
+        require(self.adc_max_V > self.adc_min_V, "adc_max_V", self.adc_max_V,
                  f"> adc_min_V = {self.adc_min_V!r}")
-        _require(self.readout in READOUTS, "readout", self.readout, f"one of {READOUTS}")
-        _require(self.model in MODELS, "model", self.model, f"one of {MODELS}")
+        require(self.mode in READOUTS, "mode", self.mode, f"one of {READOUTS}")
+        require(self.model in MODELS, "model", self.model, f"one of {MODELS}")
 
     @property
     def adc_step_V(self) -> float:
@@ -124,7 +121,7 @@ class Calibration:
     method: str = "curve"
 
     def __post_init__(self) -> None:
-        _require(self.method in CALIBRATIONS, "calibration", self.method, f"one of {CALIBRATIONS}")
+        require(self.method in CALIBRATIONS, "calibration", self.method, f"one of {CALIBRATIONS}")
         object.__setattr__(self, "_curve", PchipInterpolator(self.volts_table, self.force_table))
 
     def force_N(self, volts):
@@ -167,41 +164,6 @@ class Reading:
     saturated: bool
 
 
-# --- hysteresis: Preisach model with a uniform weight -----------------------------------------
-
-#: Memory of a virgin (never loaded) body: turning points (0,) and the current input 0.
-VIRGIN = (0.0, 0.0)
-
-
-def preisach_update(state: tuple[float, ...], s: float) -> tuple[float, ...]:
-    """New memory after the normalised input moves to ``s`` (0..1).
-
-    ``state`` = (p_0 = 0, p_1, ..., p_k, u): alternating turning points (minima at even
-    index, maxima at odd) and the current input u. A reversal pushes u; passing the older
-    extremum of the last pair wipes that pair out (Preisach wiping-out property).
-    """
-    *pts, u = state
-    if s == u:
-        return state
-    rising = s > u
-    if rising != (len(pts) % 2 == 1):           # the last segment ran the other way
-        pts.append(u)
-    while len(pts) >= 3 and (s >= pts[-2] if rising else s <= pts[-2]):
-        del pts[-2:]
-    if len(pts) == 2 and s <= pts[0]:           # back down to the unloaded state
-        del pts[1:]
-    return (*pts, s)
-
-
-def preisach_offset(state: tuple[float, ...], mu: float) -> float:
-    """h = P - mu (u - 1/2), fraction of full-scale travel, of a memory state."""
-    total = -0.5 * mu
-    for j in range(1, len(state)):
-        d = state[j] - state[j - 1]
-        total += mu * d * d if j % 2 == 1 else -mu * d * d
-    return total - mu * (state[-1] - 0.5)
-
-
 # --- the transducer: force -> volts --------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)
@@ -232,6 +194,11 @@ class Transducer:
     def noise_free_volts(self, travel_mm) -> np.ndarray:
         """Noise-free, unquantised output, V, at mirror travel(s) in mm."""
         return self.volts_spline(self.fiber_clearance_mm - np.asarray(travel_mm, dtype=float))
+
+    def analog_volts(self, forces_N) -> np.ndarray:
+        """Noise-free, unquantised output, V, along a force history from the unloaded state
+        (with hysteresis: what a bench calibration averaging many samples sees)."""
+        return _analog(self, forces_N, None, VIRGIN)[0][3]
 
 
 @dataclass(frozen=True, eq=False)
@@ -330,7 +297,7 @@ def _read(sensor: SensorModel, forces_N, rng, state):
 
 def loading_cycle(range_N: float, points: int = 201) -> np.ndarray:
     """Forces of one loading-unloading cycle 0 -> range_N -> 0, ``points`` per branch, N."""
-    _require(isinstance(points, int) and points >= 3, "points", points, "an integer >= 3")
+    require(isinstance(points, int) and points >= 3, "points", points, "an integer >= 3")
     up = np.linspace(0.0, range_N, points)
     return np.concatenate([up, up[-2::-1]])
 
@@ -363,25 +330,26 @@ def build_sensor(design: Design, optics: OpticsSetup = OpticsSetup(), readout: R
     ``fiber_clearance_mm`` (the gap at rest) so the mirror never touches the fiber.
     ``calibration``: "curve" or "linear" (see :class:`Calibration`).
     """
-    _require(_real(full_scale_travel_mm) and 0 < full_scale_travel_mm < design.fiber_clearance_mm,
+    require(is_real(full_scale_travel_mm) and 0 < full_scale_travel_mm < design.fiber_clearance_mm,
              "full_scale_travel_mm", full_scale_travel_mm,
              f"in (0, fiber_clearance_mm = {design.fiber_clearance_mm:g}) mm: the mirror must not "
              "touch the fiber")
-    _require(overload in OVERLOADS, "overload", overload, f"one of {OVERLOADS}")
-    _require(isinstance(increments, int) and increments >= 4, "increments", increments,
+    require(overload in OVERLOADS, "overload", overload, f"one of {OVERLOADS}")
+    require(is_integer(increments) and increments >= 4, "increments", increments,
              "an integer >= 4")
     r = solve(build_beam_model(design), target_output_mm=full_scale_travel_mm,
               options=SolverOptions(increments=increments))
-    H = float(law.predict(r.strain_energy_mJ))
-    _require(0 <= H < 0.5, "predicted hysteresis", H,
+    q = qualify(r, law)
+    H = q.hysteresis
+    require(0 <= H < 0.5, "predicted hysteresis", H,
              "in [0, 0.5) for this hysteresis model (a very high strain energy)")
     # Gap table: from (almost) touching to beyond rest, covering every hysteretic excursion.
     clearance = design.fiber_clearance_mm
     gaps = np.linspace(0.0, clearance + 2 * H * full_scale_travel_mm, GAP_TABLE_POINTS)
     volts = output_voltage(gaps, optics, readout.model)
-    noise = noise_rms_V(optics, readout.bandwidth_Hz, gaps, readout.model, readout.readout)
+    noise = noise_rms_V(optics, readout.bandwidth_Hz, gaps, readout.model, readout.mode)
     t = Transducer(
-        name=design.name, range_N=r.input_force_N, full_scale_travel_mm=float(full_scale_travel_mm),
+        name=design.name, range_N=q.range_N, full_scale_travel_mm=float(full_scale_travel_mm),
         fiber_clearance_mm=clearance, input_travel_mm=r.input_travel_mm,
         strain_energy_mJ=r.strain_energy_mJ, hysteresis=H, optics=optics, readout=readout,
         overload=overload, curve_force_N=r.force_N, curve_travel_mm=r.output_mm,
@@ -393,121 +361,6 @@ def build_sensor(design: Design, optics: OpticsSetup = OpticsSetup(), readout: R
                                f"fit the ADC range [{readout.adc_min_V:g}, {readout.adc_max_V:g}] V "
                                "(change the gain or the ADC range)")
     forces = loading_cycle(t.range_N, calibration_points)
-    volts_read = _analog(t, forces, None, VIRGIN)[0][3]
+    volts_read = t.analog_volts(forces)
     fields = {f.name: getattr(t, f.name) for f in dataclasses.fields(Transducer)}
     return SensorModel(**fields, calibration=fit_calibration(forces, volts_read, calibration))
-
-
-# --- datasheet -----------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Datasheet:
-    """What a sensor's datasheet states (one calibration cycle, see :func:`datasheet`)."""
-
-    name: str
-    range_N: float
-    full_scale_travel_mm: float
-    gap_min_mm: float
-    gap_max_mm: float
-    span_V: float
-    sensitivity_mV_per_N: float       # 1 / calibration slope
-    resolution_N: float               # RMS, noise and quantisation, worst over the range
-    nonlinearity_pct: float           # % FS
-    hysteresis_pct: float             # % FS, eq 87 on volts against force
-    hysteresis_mechanical_pct: float  # H given to the model (strain-energy law)
-    quality_mV_per_N: float           # sensitivity / (hysteresis_pct / 100)
-    noise_rms_V: float                # largest over the range, at the sample rate, V
-    adc_step_V: float
-    sample_rate_Hz: float
-    adc_bits: int
-    strain_energy_mJ: float
-    material: str
-
-
-def datasheet(sensor: SensorModel, material: str = "") -> Datasheet:
-    """Simulate the noise-free calibration cycle again and state the sensor's figures.
-
-    sensitivity: 1 / b of the least-squares line F = a + b V. nonlinearity_pct: largest
-    |a + b V_mid - F| / range_N, V_mid the mean of the loading and unloading branches at each
-    force (hysteresis is stated separately). hysteresis_pct: eq 87, max |V_unload - V_load| /
-    V span. resolution_N: RMS, the worst over the range of |dF/dV| sqrt(sigma^2 + q^2 / 12),
-    dF/dV the slope of the calibration in use, sigma the RMS noise at the sample rate, q the
-    ADC step (uniform quantisation error).
-    """
-    cal = sensor.calibration
-    forces = loading_cycle(sensor.range_N, len(cal.force_table))
-    volts = _analog(sensor, forces, None, VIRGIN)[0][3]
-    nonlin = np.max(np.abs(cal.intercept_N + cal.slope_N_per_V * cal.volts_table
-                           - cal.force_table)) / sensor.range_N
-    gaps = sensor.fiber_clearance_mm - sensor.travel_spline(cal.force_table)
-    sigma = sensor.noise_spline(gaps)
-    q = sensor.readout.adc_step_V
-    slope = (np.full_like(gaps, cal.slope_N_per_V) if cal.method == "linear"
-             else cal._curve.derivative()(cal.volts_table))
-    hyst = hysteresis(forces, volts)
-    sens = 1e3 / cal.slope_N_per_V
-    lo, hi = sensor.gap_range_mm
-    return Datasheet(
-        name=sensor.name, range_N=sensor.range_N, full_scale_travel_mm=sensor.full_scale_travel_mm,
-        gap_min_mm=lo, gap_max_mm=hi, span_V=float(np.ptp(volts)), sensitivity_mV_per_N=sens,
-        resolution_N=float(np.max(np.abs(slope) * np.sqrt(sigma**2 + q**2 / 12.0))),
-        nonlinearity_pct=100.0 * float(nonlin), hysteresis_pct=100.0 * hyst,
-        hysteresis_mechanical_pct=100.0 * sensor.hysteresis, quality_mV_per_N=sens / hyst if hyst > 0 else math.inf,
-        noise_rms_V=float(np.max(sigma)), adc_step_V=q,
-        sample_rate_Hz=sensor.readout.sample_rate_Hz, adc_bits=int(sensor.readout.adc_bits),
-        strain_energy_mJ=sensor.strain_energy_mJ, material=material)
-
-
-# --- cross-axis sensitivity ----------------------------------------------------------------
-
-@dataclass(frozen=True)
-class CrossAxis:
-    """Mirror travel along the sensing axis under an imposed lateral vs axial input travel.
-
-    ratio_pct = 100 max(|lateral +x|, |lateral -x|) / axial (the thesis' "variation in the
-    lateral loading case as % of the axial", 1.66 % delrin, 3.29 % ABS). tilt_deg: mirror
-    rotation under the lateral travel (the intensity model ignores tilt).
-    """
-
-    imposed_travel_mm: float
-    axial_mirror_travel_mm: float
-    lateral_mirror_travel_mm: tuple[float, float]   # for +x and -x
-    ratio_pct: float
-    lateral_force_N: float
-    axial_force_N: float
-    tilt_deg: float
-
-
-def cross_axis(design: Design, imposed_travel_mm: float) -> CrossAxis:
-    """Impose the same input (top plate) travel laterally (+x, -x) and axially; compare the
-    mirror's travel along the sensing axis.
-
-    A lateral force meets the body's compliant shear mode, so the lateral travel is imposed
-    (displacement control of the input node), like the thesis' XY-stage. Pass the sensor's
-    full-scale input travel to stay within range (amplifying bodies reach the fiber long
-    before 1 mm of input travel).
-    """
-    _require(_real(imposed_travel_mm) and imposed_travel_mm > 0, "imposed_travel_mm",
-             imposed_travel_mm, "a finite number > 0 (mm)")
-    guided = build_beam_model(design)                     # axial: the stage guides the input
-    free = build_beam_model(design, input_guided=False)   # lateral: the stage drives it sideways
-    mirror, axis = guided.output_node, np.asarray(guided.output_direction, dtype=float)
-
-    def drive(direction):
-        model = guided if direction[0] == 0 else free
-        driven = dataclasses.replace(model, input_direction=np.array(direction, dtype=float),
-                                     output_node=model.input_node,
-                                     output_direction=np.array(direction, dtype=float))
-        try:
-            r = solve(driven, target_output_mm=imposed_travel_mm, options=SolverOptions(increments=8))
-        except SolverError as exc:
-            raise SensorInputError(f"imposed_travel_mm = {imposed_travel_mm!r}: the body cannot be "
-                              f"driven that far along {direction}: {exc}") from None
-        travel = float((r.deformed_nodes[mirror] - model.nodes[mirror]) @ axis)
-        return travel, r.input_force_N, float(np.degrees(r.node_rotation_rad[mirror]))
-
-    axial, f_ax, _ = drive(tuple(guided.input_direction))
-    plus, f_lat, tilt = drive((1.0, 0.0))
-    minus, _, _ = drive((-1.0, 0.0))
-    return CrossAxis(float(imposed_travel_mm), axial, (plus, minus),
-                     100.0 * max(abs(plus), abs(minus)) / abs(axial), f_lat, f_ax, tilt)

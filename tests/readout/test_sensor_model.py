@@ -11,20 +11,19 @@ from geometry.params import preset
 from geometry.topology import build_beam_model
 from sensor.cli import main
 from sensor.errors import SensorError, SensorRangeError
-from sensor.mechanics.hysteresis import TABLE6, StrainEnergyLaw, hysteresis
-from sensor.mechanics.solver import SolverOptions, solve
-from sensor.readout.noise import noise_rms_V
-from sensor.readout.optics import OpticsSetup
-from sensor.readout.sensor_model import (
+from sensor.mechanics.hysteresis import (
+    TABLE6,
     VIRGIN,
-    Readout,
-    build_sensor,
-    cross_axis,
-    datasheet,
-    loading_cycle,
+    StrainEnergyLaw,
+    hysteresis,
     preisach_offset,
     preisach_update,
 )
+from sensor.mechanics.solver import SolverOptions, solve
+from sensor.readout.datasheet import cross_axis, datasheet
+from sensor.readout.noise import noise_rms_V
+from sensor.readout.optics import OpticsSetup
+from sensor.readout.sensor_model import Readout, build_sensor, loading_cycle
 
 SPECIMENS = ("basis", "sample-a", "sample-b")
 NO_HYSTERESIS = StrainEnergyLaw(0.0, "none")
@@ -135,7 +134,7 @@ def test_noise_has_the_analytic_rms():
     """A noisy direct readout (RIN -100 dB/Hz) behind a 24-bit ADC: the std of 20000 samples
     at a constant force matches sensor.readout.noise.noise_rms_V within 5 % (10 standard errors)."""
     optics = OpticsSetup(source_rin_dB_per_Hz=-100.0)
-    readout = Readout(sample_rate_Hz=2000.0, adc_bits=24, readout="direct")
+    readout = Readout(sample_rate_Hz=2000.0, adc_bits=24, mode="direct")
     s = build_sensor(preset("basis"), optics, readout)
     f = np.full(20_000, 0.5 * s.range_N)
     r = s.read(f, np.random.default_rng(4))
@@ -266,7 +265,7 @@ def test_saturate_clips_and_flags():
     ({"adc_bits": 12.5}, "adc_bits = 12.5"),
     ({"sample_rate_Hz": 0.0}, "sample_rate_Hz = 0.0"),
     ({"adc_min_V": 1.0, "adc_max_V": 0.0}, "adc_max_V = 0.0: must be > adc_min_V"),
-    ({"readout": "both"}, "readout = 'both'"),
+    ({"mode": "both"}, "mode = 'both'"),
     ({"model": "wave"}, "model = 'wave'"),
 ])
 def test_bad_readout_settings(kwargs, match):
