@@ -45,7 +45,7 @@ def register(subparsers) -> None:
 def spec_from_args(args: argparse.Namespace):
     """The sweep settings: defaults, then the TOML file, then the flags."""
     from geometry.errors import GeometryError
-    from sensor.design_space.sweep import Grid, SweepSpec
+    from sensor.design_space.spec import Grid, SweepSpec
     from sensor.errors import SweepError
 
     cfg: dict = {}
@@ -120,7 +120,8 @@ class _Progress:
 def run(args: argparse.Namespace) -> int:
     from importlib.metadata import version
 
-    from sensor.design_space.sweep import run_sweep, save_dataset
+    from sensor.design_space.dataset import save_dataset, write_csv
+    from sensor.design_space.execution import run_sweep
     from sensor.errors import SweepError
 
     spec = spec_from_args(args)
@@ -149,19 +150,6 @@ def run(args: argparse.Namespace) -> int:
         written += plot_pareto(ds, fronts, out)
     print_summary(ds, fronts, n_new, t_solve, time.monotonic() - t0, written)
     return 0
-
-
-def write_csv(ds, path: Path) -> Path:
-    """The tidy table: one row per (hinges, phi1, phi2) with every variable."""
-    from geometry.atomic import atomic_path
-
-    proposed = [v for v in ds.data_vars if ds[v].dims == ("hinges", "phi1_deg", "phi2_deg")]
-    df = ds[proposed].to_dataframe().reset_index()
-    basis = ds[[v for v in ds.data_vars if ds[v].dims == ("hinges", "phi1_deg")]].to_dataframe().reset_index()
-    df = df.merge(basis, on=["hinges", "phi1_deg"])
-    with atomic_path(path) as tmp:
-        df.to_csv(tmp, index=False, float_format="%.6g")
-    return path
 
 
 def write_table(df, path: Path) -> Path:

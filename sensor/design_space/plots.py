@@ -4,15 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import xarray as xr
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-import xarray as xr  # noqa: E402
-
-from geometry.atomic import save_figure  # noqa: E402
+from geometry.atomic import save_figure
 
 #: Thesis specimens marked on every panel (Table 5).
 SAMPLES = {"A": (21.0, 34.0), "B": (22.0, 17.2)}

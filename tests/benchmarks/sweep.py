@@ -14,7 +14,8 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from sensor.design_space.sweep import SweepSpec, run_sweep  # noqa: E402
+from sensor.design_space.execution import run_sweep  # noqa: E402
+from sensor.design_space.spec import SweepSpec
 
 
 def main():

@@ -7,7 +7,9 @@ import xarray as xr
 from scipy.stats import spearmanr
 
 from sensor.cli import main
-from sensor.design_space.sweep import Grid, SweepSpec, load_dataset, run_sweep
+from sensor.design_space.dataset import load_dataset
+from sensor.design_space.execution import run_sweep
+from sensor.design_space.spec import Grid, SweepSpec
 from sensor.errors import SweepError
 
 TREND_SPEC = SweepSpec(phi1=Grid(6, 31, 21), phi2=Grid(4, 56, 21))
@@ -170,7 +172,7 @@ def test_unreachable_scheduler_fails_fast():
 def test_resume_recomputes_nothing(tmp_path, serial):
     path = tmp_path / "sweep.nc"
     ds, n = run_sweep(SMALL, "test", path, workers=1)
-    from sensor.design_space.sweep import save_dataset
+    from sensor.design_space.dataset import save_dataset
     save_dataset(ds, path)
     ds2, n2 = run_sweep(SMALL, "test", path, resume=True, workers=1)
     assert n2 == 0
@@ -178,7 +180,7 @@ def test_resume_recomputes_nothing(tmp_path, serial):
 
 
 def test_resume_refuses_other_settings(tmp_path):
-    from sensor.design_space.sweep import save_dataset
+    from sensor.design_space.dataset import save_dataset
     path = tmp_path / "sweep.nc"
     save_dataset(run_sweep(SMALL, "test", workers=1)[0], path)
     other = SweepSpec(hinge_sets=("05-03",), phi1=Grid(12, 28, 5), phi2=Grid(8, 48, 5))

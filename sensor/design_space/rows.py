@@ -1,0 +1,101 @@
+"""One row of a sweep: the basis body at one phi1 and the proposed body at every phi2,
+solved together as a batch (one topology), with optional Monte-Carlo hinge scatter."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from geometry.checks import check_design
+from geometry.params import HINGE_SETS
+from geometry.topology import build_beam_model
+from sensor.design_space.dataset import MC_QUALIFIERS, QUALIFIERS
+from sensor.design_space.spec import SweepSpec
+from sensor.mechanics.hysteresis import StrainEnergyLaw
+from sensor.mechanics.qualifiers import Qualifiers, qualify
+from sensor.mechanics.solver import SolverOptions, solve_batch
+
+
+def _cell_seed(seed: int, hinges: str, i: int, j: int) -> np.random.Generator:
+    """A generator that depends only on the cell, not on how rows were scheduled."""
+    return np.random.default_rng([seed, list(HINGE_SETS).index(hinges), i, j])
+
+
+def _qualifiers(results, law: StrainEnergyLaw) -> dict[str, np.ndarray]:
+    """Qualifier arrays over a batch of results (NaN where a solve failed)."""
+    q = [qualify(r, law) if r is not None else Qualifiers.missing() for r in results]
+    return {k: np.array([getattr(x, k) for x in q], dtype=float) for k in Qualifiers.names()}
+
+
+def solve_row(spec: SweepSpec, hinges: str, i: int, todo: np.ndarray | None = None) -> dict:
+    """Solve row i (one phi1) of a hinge set: the basis body and the cells ``todo`` (bool
+    mask over phi2; default all). Pure: depends only on its arguments."""
+    phi1 = float(spec.phi1.values[i])
+    phi2s = spec.phi2.values
+    todo = np.ones(len(phi2s), bool) if todo is None else np.asarray(todo, bool)
+    opts = SolverOptions()
+    row = {"hinges": hinges, "i": i, "computed": todo.copy(),
+           "reason": np.array([""] * len(phi2s), dtype=object)}
+    # the reference: the basis body with this phi1
+    basis = spec.design(hinges, phi1, None)
+    fail = check_design(basis).first_failure
+    if fail is None:
+        res, err = solve_batch([build_beam_model(basis)], target_output_mm=spec.target_output_mm, options=opts)
+        row["basis"] = {k: float(v[0]) for k, v in _qualifiers(res, spec.law).items()}
+        basis_reason = "" if err[0] is None else f"basis: {err[0]}"
+    else:
+        row["basis"] = {k: np.nan for k in QUALIFIERS}
+        basis_reason = f"basis infeasible: {fail.rule}: {fail.message}"
+    row["basis_reason"] = basis_reason
+    # the proposed body at each phi2
+    designs, cells = [], []
+    for j in np.flatnonzero(todo):
+        d = spec.design(hinges, phi1, phi2s[j])
+        fail = check_design(d).first_failure
+        if fail is not None:
+            row["reason"][j] = f"{fail.rule}: {fail.message}"
+        else:
+            designs.append(d)
+            cells.append(j)
+    q = {k: np.full(len(phi2s), np.nan) for k in QUALIFIERS}
+    if designs:
+        res, errs = solve_batch([build_beam_model(d) for d in designs],
+                                target_output_mm=spec.target_output_mm, options=opts)
+        vals = _qualifiers(res, spec.law)
+        for n, j in enumerate(cells):
+            if errs[n] is not None:
+                row["reason"][j] = f"solver: {errs[n]}"
+            for k in QUALIFIERS:
+                q[k][j] = vals[k][n]
+    row["proposed"] = q
+    if spec.monte_carlo:
+        row["mc"] = _monte_carlo_row(spec, hinges, i, designs, cells, len(phi2s), opts)
+    return row
+
+
+def _monte_carlo_row(spec, hinges, i, designs, cells, n_phi2, opts) -> dict:
+    """Each feasible cell repeated with hinge thicknesses drawn around the nominal.
+
+    A draw with a hinge thinner than the process can hold (``min_feature_mm``) is a part
+    that could not be made, and a draw the solver cannot take to the target travel is one
+    that would not work: both count against the cell's yield and stay out of the statistics.
+    """
+    stats = {f"{k}_{s}": np.full(n_phi2, np.nan) for k in MC_QUALIFIERS for s in ("mean", "std", "p10")}
+    stats["yield"] = np.full(n_phi2, np.nan)
+    for d, j in zip(designs, cells):
+        rng = _cell_seed(spec.seed, hinges, i, j)
+        nominal = np.array(d.hinge_thickness_mm)
+        draws = nominal + spec.hinge_sd_mm * rng.standard_normal((spec.monte_carlo, len(nominal)))
+        used = slice(None, 8) if d.is_basis else slice(None)
+        makeable = draws[:, used].min(axis=1) >= d.min_feature_mm
+        models = [build_beam_model(d.replace(hinge_thickness_mm=tuple(t))) for t in draws[makeable]]
+        res, _ = solve_batch(models, target_output_mm=spec.target_output_mm, options=opts) if models else ([], [])
+        stats["yield"][j] = sum(r is not None for r in res) / spec.monte_carlo
+        vals = _qualifiers(res, spec.law)
+        for k in MC_QUALIFIERS:
+            v = vals[k][np.isfinite(vals[k])]
+            if len(v):
+                stats[f"{k}_mean"][j] = v.mean()
+                stats[f"{k}_std"][j] = v.std(ddof=1) if len(v) > 1 else 0.0
+                # robust value: the worse tail (10th percentile of goods, 90th of hysteresis)
+                stats[f"{k}_p10"][j] = np.percentile(v, 90 if k == "hysteresis" else 10)
+    return stats
