@@ -7,17 +7,10 @@ import pytest
 
 from geometry.params import make_design, save_design
 from geometry.topology import load_model
-from sensor.cli import main
 
 
-def run(capsys, *argv):
-    status = main(list(argv))
-    out, err = capsys.readouterr()
-    return status, out, err
-
-
-def test_export_preset_writes_what_it_prints(tmp_path, capsys):
-    status, out, err = run(capsys, "export", "--preset", "sample-a", "--out", str(tmp_path),
+def test_export_preset_writes_what_it_prints(tmp_path, dacm):
+    status, out, err = dacm("export", "--preset", "sample-a", "--out", str(tmp_path),
                            "--dxf", "--json")
     assert status == 0 and err == ""
     written = sorted(tmp_path.iterdir())
@@ -26,8 +19,8 @@ def test_export_preset_writes_what_it_prints(tmp_path, capsys):
     assert load_model(tmp_path / "sample-a.json").E_MPa == 2300.0
 
 
-def test_export_all_formats_from_flags_with_kerf(tmp_path, capsys):
-    status, out, _ = run(capsys, "export", "--design", "basis", "--phi1", "20", "--hinges",
+def test_export_all_formats_from_flags_with_kerf(tmp_path, dacm):
+    status, out, _ = dacm("export", "--design", "basis", "--phi1", "20", "--hinges",
                          "03-03", "--material", "abs", "--kerf", "0.6", "--out", str(tmp_path))
     assert status == 0
     stem = "basis-20-03-03-abs"
@@ -39,11 +32,11 @@ def test_export_all_formats_from_flags_with_kerf(tmp_path, capsys):
     assert box.size.x == pytest.approx(25.0 + 0.6, abs=1e-6)  # outline out by kerf / 2
 
 
-def test_export_from_toml_is_named_after_the_file(tmp_path, capsys):
+def test_export_from_toml_is_named_after_the_file(tmp_path, dacm):
     save_design(make_design(21.0, 34.0), tmp_path / "mine.toml")
     out_dir = tmp_path / "out"
     out_dir.mkdir()
-    status, _, _ = run(capsys, "export", "--config", str(tmp_path / "mine.toml"), "--out",
+    status, _, _ = dacm("export", "--config", str(tmp_path / "mine.toml"), "--out",
                        str(out_dir), "--json")
     assert status == 0
     assert [p.name for p in out_dir.iterdir()] == ["mine.json"]
@@ -61,38 +54,38 @@ def test_export_from_toml_is_named_after_the_file(tmp_path, capsys):
     (["--material", "steel"], "--material = 'steel'"),
     (["--kerf", "1.6", "--preset", "sample-a"], "rule 'kerf_gap' fails"),
 ])
-def test_export_bad_input_one_line_status_2_no_file(tmp_path, capsys, argv, message):
-    status, out, err = run(capsys, "export", *argv, "--out", str(tmp_path))
+def test_export_bad_input_one_line_status_2_no_file(tmp_path, dacm, argv, message):
+    status, out, err = dacm("export", *argv, "--out", str(tmp_path))
     assert status == 2 and out == ""
     assert len(err.splitlines()) == 1
     assert err.startswith("dacm export: error: ") and message in err
     assert list(tmp_path.iterdir()) == []
 
 
-def test_export_malformed_toml(tmp_path, capsys):
+def test_export_malformed_toml(tmp_path, dacm):
     bad = tmp_path / "bad.toml"
     bad.write_text("phi1_deg = [\n")
-    status, _, err = run(capsys, "export", "--config", str(bad), "--out", str(tmp_path))
+    status, _, err = dacm("export", "--config", str(bad), "--out", str(tmp_path))
     assert status == 2 and len(err.splitlines()) == 1 and "malformed TOML" in err
     assert [p.name for p in tmp_path.iterdir()] == ["bad.toml"]
 
 
-def test_export_unwritable_output(tmp_path, capsys):
+def test_export_unwritable_output(tmp_path, dacm):
     (tmp_path / "file").write_text("")
-    status, _, err = run(capsys, "export", "--preset", "basis", "--out", str(tmp_path / "file" / "dir"))
+    status, _, err = dacm("export", "--preset", "basis", "--out", str(tmp_path / "file" / "dir"))
     assert status == 2 and len(err.splitlines()) == 1 and "cannot create output folder" in err
     assert [p.name for p in tmp_path.iterdir()] == ["file"]
 
 
-def test_export_bad_design_creates_no_folder(tmp_path, capsys):
-    status, _, _ = run(capsys, "export", "--phi1", "40", "--out", str(tmp_path / "new"))
+def test_export_bad_design_creates_no_folder(tmp_path, dacm):
+    status, _, _ = dacm("export", "--phi1", "40", "--out", str(tmp_path / "new"))
     assert status == 2 and list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".svg", b"<?xml")])
-def test_draw_writes_picture(tmp_path, capsys, suffix, magic):
+def test_draw_writes_picture(tmp_path, dacm, suffix, magic):
     target = tmp_path / f"a{suffix}"
-    status, out, _ = run(capsys, "draw", "--preset", "sample-a", "--out", str(target), "--dpi", "60")
+    status, out, _ = dacm("draw", "--preset", "sample-a", "--out", str(target), "--dpi", "60")
     assert status == 0 and out == f"wrote {target}\n"
     assert target.read_bytes().startswith(magic)
     assert [p.name for p in tmp_path.iterdir()] == [target.name]
@@ -103,9 +96,9 @@ def test_draw_writes_picture(tmp_path, capsys, suffix, magic):
     (["--out", "{tmp}/missing/a.png"], "output folder does not exist"),
     (["--phi1", "40", "--out", "{tmp}/a.png"], "rule 'angle_limits' fails"),
 ])
-def test_draw_bad_input(tmp_path, capsys, argv, message):
+def test_draw_bad_input(tmp_path, dacm, argv, message):
     argv = [a.format(tmp=tmp_path) for a in argv]
-    status, _, err = run(capsys, "draw", *argv)
+    status, _, err = dacm("draw", *argv)
     assert status == 2 and len(err.splitlines()) == 1
     assert err.startswith("dacm draw: error: ") and message in err
     assert list(tmp_path.iterdir()) == []
