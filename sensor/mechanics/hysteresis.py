@@ -124,8 +124,10 @@ DEFAULT_LAW = StrainEnergyLaw.calibrate("basis")
 
 
 def quality(sensitivity_mm_per_N, hysteresis_fraction):
-    """Overall quality ("SNR" of Table 6) = sensitivity / hysteresis, mm/N."""
-    return np.asarray(sensitivity_mm_per_N, dtype=float) / np.asarray(hysteresis_fraction, dtype=float)
+    """Overall quality ("SNR" of Table 6) = sensitivity / hysteresis, mm/N (infinite for a
+    body without hysteresis)."""
+    with np.errstate(divide="ignore"):
+        return np.asarray(sensitivity_mm_per_N, dtype=float) / np.asarray(hysteresis_fraction, dtype=float)
 
 
 # --- rate-independent loops: Preisach model with a uniform weight ----------------------------

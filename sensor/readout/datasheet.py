@@ -9,7 +9,6 @@ thesis' lateral-loading test (1.66 % for delrin).
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,7 +75,7 @@ def datasheet(sensor: SensorModel, material: str = "") -> Datasheet:
         gap_min_mm=lo, gap_max_mm=hi, span_V=float(np.ptp(volts)), sensitivity_mV_per_N=sens,
         resolution_N=float(np.max(np.abs(slope) * np.sqrt(sigma**2 + q**2 / 12.0))),
         nonlinearity_pct=100.0 * float(nonlin), hysteresis_pct=100.0 * hyst,
-        hysteresis_mechanical_pct=100.0 * sensor.hysteresis, quality_mV_per_N=float(quality(sens, hyst)) if hyst > 0 else math.inf,
+        hysteresis_mechanical_pct=100.0 * sensor.hysteresis, quality_mV_per_N=float(quality(sens, hyst)),
         noise_rms_V=float(np.max(sigma)), adc_step_V=q,
         sample_rate_Hz=sensor.readout.sample_rate_Hz, adc_bits=int(sensor.readout.adc_bits),
         strain_energy_mJ=sensor.strain_energy_mJ, material=material)
