@@ -163,3 +163,15 @@ def preisach_offset(state: tuple[float, ...], mu: float) -> float:
         d = state[j] - state[j - 1]
         total += mu * d * d if j % 2 == 1 else -mu * d * d
     return total - mu * (state[-1] - 0.5)
+
+
+def preisach_offsets(inputs, mu: float, state: tuple[float, ...] = VIRGIN):
+    """Offsets h (fraction of full scale) along a normalised input history (0..1) from a
+    memory ``state``; returns (h, final state). A full loop 0 -> 1 -> 0 has hysteresis
+    mu / 2 by eq 87, so ``mu = 2 H`` gives a loop of hysteresis H."""
+    s = np.asarray(inputs, dtype=float)
+    h = np.empty_like(s)
+    for i, si in enumerate(s):
+        state = preisach_update(state, float(si))
+        h[i] = preisach_offset(state, mu)
+    return h, state

@@ -41,13 +41,7 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 from geometry.params import Design
 from geometry.topology import build_beam_model
 from sensor.errors import SensorInputError, SensorRangeError
-from sensor.mechanics.hysteresis import (
-    DEFAULT_LAW,
-    VIRGIN,
-    StrainEnergyLaw,
-    preisach_offset,
-    preisach_update,
-)
+from sensor.mechanics.hysteresis import DEFAULT_LAW, VIRGIN, StrainEnergyLaw, preisach_offsets
 from sensor.mechanics.qualifiers import qualify
 from sensor.mechanics.solver import SolverOptions, solve
 from sensor.readout.noise import READOUTS, noise_rms_V
@@ -258,12 +252,7 @@ def _analog(sensor: Transducer, forces_N, rng, state):
     if rng is not None and not isinstance(rng, np.random.Generator):
         raise SensorInputError(f"rng = {rng!r}: must be a numpy.random.Generator or None")
     f, clipped = _checked_forces(forces_N, sensor.range_N, sensor.overload)
-    s = f / sensor.range_N
-    mu = 2.0 * sensor.hysteresis
-    h = np.empty_like(s)
-    for i, si in enumerate(s):
-        state = preisach_update(state, float(si))
-        h[i] = preisach_offset(state, mu)
+    h, state = preisach_offsets(f / sensor.range_N, 2.0 * sensor.hysteresis, state)
     travel = sensor.travel_spline(f) + sensor.full_scale_travel_mm * h
     gap = sensor.fiber_clearance_mm - travel
     if (gap <= 0).any():
