@@ -13,43 +13,20 @@ command.
 True
 """
 
-from __future__ import annotations
+import lazy_loader
 
-import importlib
-
-_EXPORTS = {
-    "solve": "sensor.mechanics.solver",
-    "solve_batch": "sensor.mechanics.solver",
-    "SolveResult": "sensor.mechanics.solver",
-    "SolverOptions": "sensor.mechanics.solver",
-    "Qualifiers": "sensor.mechanics.qualifiers",
-    "qualify": "sensor.mechanics.qualifiers",
-    "StrainEnergyLaw": "sensor.mechanics.hysteresis",
-    "DEFAULT_LAW": "sensor.mechanics.hysteresis",
-    "hysteresis": "sensor.mechanics.hysteresis",
-    "build_sensor": "sensor.readout.sensor_model",
-    "Readout": "sensor.readout.sensor_model",
-    "OpticsSetup": "sensor.readout.optics",
-    "datasheet": "sensor.readout.datasheet",
-    "SweepSpec": "sensor.design_space.spec",
-    "Grid": "sensor.design_space.spec",
-    "run_sweep": "sensor.design_space.execution",
-    "load_dataset": "sensor.design_space.dataset",
-    "SensorError": "sensor.errors",
-    "SensorInputError": "sensor.errors",
-    "SolverError": "sensor.errors",
-}
-
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        value = getattr(importlib.import_module(_EXPORTS[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'sensor' has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "mechanics.solver": ["SolveResult", "SolverOptions", "solve", "solve_batch"],
+        "mechanics.qualifiers": ["Qualifiers", "qualify"],
+        "mechanics.hysteresis": ["DEFAULT_LAW", "StrainEnergyLaw", "hysteresis"],
+        "readout.sensor_model": ["Readout", "build_sensor"],
+        "readout.optics": ["OpticsSetup"],
+        "readout.datasheet": ["datasheet"],
+        "design_space.spec": ["Grid", "SweepSpec"],
+        "design_space.execution": ["run_sweep"],
+        "design_space.dataset": ["load_dataset"],
+        "errors": ["SensorError", "SensorInputError", "SolverError"],
+    },
+)
