@@ -117,6 +117,18 @@ def face_thrusts(x, op, om, nn, area, rt, phi):
 
 
 @njit(cache=True)
+def element_mach(m, pa, pb, first, last, area, rt, c2):
+    """Mach number |m| R T / (A P c) of a flow element at the mean of its face pressures; a tube
+    end face counts at no less than its choked pressure |m| sqrt(R T) / A (:func:`end_thrust`)."""
+    sonic = abs(m) * math.sqrt(rt) / area
+    if first:
+        pa = max(pa, sonic)
+    if last:
+        pb = max(pb, sonic)
+    return abs(m) * 2.0 * rt / (area * (pa + pb) * math.sqrt(c2))
+
+
+@njit(cache=True)
 def chamber_volumes(z, v, pc):
     """(V1, V2, dV1/dt, dV2/dt) of the actuator chambers (fixed chambers when pc[FIXED])."""
     if pc[FIXED] > 0.5:
@@ -447,8 +459,8 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                         for i in range(kk):
                             x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + (mn - m) * pf[s, j, i]
             for j in range(nn - 1):
-                mj = abs(x[om + j]) * 2.0 * rt / (area * (x[op + j] + x[op + j + 1]) * math.sqrt(c2))
-                mach = max(mach, mj)
+                mach = max(mach, element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2,
+                                              area, rt, c2))
             acc[A_MACH + s] = max(acc[A_MACH + s], mach)
             # (3) nodes
             delayed = ps[s, S_ATTEN] > 0.5
