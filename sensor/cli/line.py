@@ -119,12 +119,12 @@ def run(args: argparse.Namespace) -> int:
     print(f"\nstep test: valve {step['valve']} opened at 0 s (atmosphere -> {case.pressure_Pa:g} Pa), "
           f"reversed at {step['valve_reversal_s']:g} s")
     print(f" {'model':16s} {'reached':>8s} {'delay 10% (ms)':>15s} {'rise 10-90% (ms)':>17s} "
-          f"{'overshoot':>10s} {'ripple':>7s} {'max valve-chamber gap (kPa)':>28s}")
+          f"{'overshoot':>10s} {'ripple':>7s} {'max valve-chamber gap (kPa)':>28s} {'max Mach':>9s}")
     for name, m in step["models"].items():
         ms = [None if m[k] is None else 1e3 * m[k] for k in ("delay_10pct_s", "rise_10_90_s")]
         print(f" {name:16s} {m['reached_pct']:7.1f}% {_fmt(ms[0], 15, '.1f')} {_fmt(ms[1], 17, '.1f')} "
               f"{m['overshoot_pct']:9.1f}% {m['ripple_pct']:6.1f}% "
-              f"{m['max_valve_chamber_gap_Pa'] / 1e3:28.1f}")
+              f"{m['max_valve_chamber_gap_Pa'] / 1e3:28.1f} {m['max_mach']:9.3f}")
     rh = step["models"].get("richer-hurmuzlu")
     if rh is not None and rh["reached_pct"] < 90.0:
         print(f" note: richer-hurmuzlu attenuates the fully open valve flow "

@@ -55,16 +55,22 @@ N_ACC = 7
 
 
 @njit(cache=True)
+def pow075(x):
+    """x^0.75 for x >= 0 as sqrt(x sqrt(x)) (two square roots are much cheaper than pow)."""
+    return math.sqrt(x * math.sqrt(x))
+
+
+@njit(cache=True)
 def steady_coefficient(mdot, nu, bore, law, mu):
     """Steady friction coefficient f (1/s) on the mass flow (eq 54's f)."""
     re = 4.0 * abs(mdot) / (math.pi * bore * mu)
     lam = 32.0 * nu / (bore * bore)
     if law == 0:
-        return lam + 0.158 * re**0.75 * nu / (bore * bore)
+        return lam + 0.158 * pow075(re) * nu / (bore * bore)
     if re <= 2300.0:
         return lam
     if re >= 4000.0:
-        return 0.158 * re**0.75 * nu / (bore * bore)
+        return 0.158 * pow075(re) * nu / (bore * bore)
     t4000 = 0.158 * 4000.0**0.75 * nu / (bore * bore)
     return lam + (t4000 - lam) * (re - 2300.0) / 1700.0
 
@@ -74,7 +80,7 @@ def rh_attenuation(mdot, pressure, pc, ps_s):
     """Richer-Hurmuzlu attenuation factor exp(-R_t R T L / (2 P c)) (eqs 4-5)."""
     bore = ps_s[S_BORE]
     re = 4.0 * abs(mdot) / (math.pi * bore * pc[MU])
-    coef = 32.0 if re <= 2300.0 else 0.158 * re**0.75
+    coef = 32.0 if re <= 2300.0 else 0.158 * pow075(re)
     rt = coef * pc[MU] / (bore * bore)
     c = math.sqrt(pc[GAMMA] * pc[RT])
     return math.exp(-rt * pc[RT] * ps_s[S_LEN] / (2.0 * max(pressure, 1.0) * c))
@@ -86,7 +92,7 @@ def resistive_conductance(valve_flow, p_port, pc, ps_s):
     eq 5 at the Reynolds number of the valve flow at that pressure (the preliminary model)."""
     bore = ps_s[S_BORE]
     re = 4.0 * abs(valve_flow) / (math.pi * bore * pc[MU])
-    coef = 32.0 if re <= 2300.0 else 0.158 * re**0.75
+    coef = 32.0 if re <= 2300.0 else 0.158 * pow075(re)
     return (p_port / pc[RT]) * ps_s[S_AREA] / (ps_s[S_LEN] * coef * pc[MU] / (bore * bore))
 
 
@@ -352,7 +358,7 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     head the current ring index, returned updated).  acc[A_VALVE + s] accumulates the valve mass
     (kg) delivered into side s, acc[A_CHAMBER + s] the mass delivered into its chamber; acc[A_FORCE]
     is the environment force F_e (N) at the end of the step and acc[A_MACH + s] the largest Mach
-    number |m| R T / (A P c) of side s's flow elements during the step.  work: scratch of shape (2, nodes, 4 K + 6),
+    number |m| R T / (A P c) of side s's flow elements during the step.  work: scratch of shape (2, nodes, 6 K + 7),
     zero on the first call (see :func:`work_array`).  Returns (head, index of the first non-finite
     or runaway state or -1, see :func:`first_bad`)."""
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
@@ -363,34 +369,44 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     nring = ring.shape[1]
     mass_eff = pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0)
     # relaxation factors e = exp(-beta h) and phi = (1 - e) / (beta h) of each element (friction)
-    # and tube node (heat transfer), kept in work[s, j] and recomputed only when the local
-    # kinematic viscosity has moved by more than NU_TOL since they were computed
+    # and tube node (heat transfer), and the sums the steps need, kept in work[s, j] and recomputed
+    # only when the local kinematic viscosity has moved by more than NU_TOL since they were computed
     ef = work[:, :, 0:kk]
     pf = work[:, :, kk:2 * kk]
     et = work[:, :, 2 * kk:3 * kk]
     pt = work[:, :, 3 * kk:4 * kk]
-    c16 = work[:, :, 4 * kk]
+    cf = work[:, :, 4 * kk:5 * kk]     # (16 nu / D^2) m_i e_i: weight of y_i in the friction drive
+    ch = work[:, :, 5 * kk:6 * kk]     # kappa a_i (e_i - 1): weight of w_i in the node update
+    w0 = 6 * kk                        # scalars: nu_f, nu_t, h_f, h_t, thrust, extra, sum a_i phi_i
     for s in range(2):
         op = off[s, O_P]
         d2 = ps[s, S_BORE] * ps[s, S_BORE]
         for j in range(int(ps[s, S_NN]) - 1):
             nu = mu * 2.0 * rt / (x[op + j] + x[op + j + 1])
-            if abs(nu - work[s, j, 4 * kk + 1]) > NU_TOL * nu or work[s, j, 4 * kk + 3] != h:
-                work[s, j, 4 * kk + 1] = nu
-                work[s, j, 4 * kk + 3] = h
-                c16[s, j] = 16.0 * nu / d2
+            if abs(nu - work[s, j, w0]) > NU_TOL * nu or work[s, j, w0 + 2] != h:
+                work[s, j, w0] = nu
+                work[s, j, w0 + 2] = h
+                c16 = 16.0 * nu / d2
+                extra = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / d2 * h
                     ef[s, j, i] = math.exp(-bh)
                     pf[s, j, i] = -math.expm1(-bh) / bh
+                    cf[s, j, i] = c16 * km[i] * ef[s, j, i]
+                    extra += h * c16 * km[i] * pf[s, j, i]
+                work[s, j, w0 + 5] = extra
             nu = mu * rt / x[op + j]
-            if abs(nu - work[s, j, 4 * kk + 2]) > NU_TOL * nu or work[s, j, 4 * kk + 4] != h:
-                work[s, j, 4 * kk + 2] = nu
-                work[s, j, 4 * kk + 4] = h
+            if abs(nu - work[s, j, w0 + 1]) > NU_TOL * nu or work[s, j, w0 + 3] != h:
+                work[s, j, w0 + 1] = nu
+                work[s, j, w0 + 3] = h
+                sa = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
                     et[s, j, i] = math.exp(-bh)
                     pt[s, j, i] = -math.expm1(-bh) / bh
+                    ch[s, j, i] = kappa * ka[i] * (et[s, j, i] - 1.0)
+                    sa += ka[i] * pt[s, j, i]
+                work[s, j, w0 + 6] = sa
     cond = np.empty((2, 2))   # (side, supply / exhaust) conductance at this command
     spool = pc[SPOOL_ORDER] > 0.5
     for s in range(2):
@@ -439,25 +455,26 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
             else:
                 convect = ps[s, S_CONVECT] > 0.5
                 if convect:
-                    face_thrusts(x, op, om, nn, area, rt, work[s, :, 4 * kk + 5])
+                    face_thrusts(x, op, om, nn, area, rt, work[s, :, w0 + 4])
+                inert = ps[s, S_INERT]
                 for j in range(nn - 1):
                     pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
                     fs = steady_coefficient(m, mu * 2.0 * rt / (pa + pb), bore, ps[s, S_LAW], mu)
                     if convect:
-                        drive = ps[s, S_INERT] / area * (work[s, j, 4 * kk + 5] - work[s, j + 1, 4 * kk + 5])
+                        drive = inert / area * (work[s, j, w0 + 4] - work[s, j + 1, w0 + 4])
                     else:
-                        drive = ps[s, S_INERT] * (pa - pb)
+                        drive = inert * (pa - pb)
                     extra = 0.0
                     if uns:
-                        c = c16[s, j]
+                        extra = work[s, j, w0 + 5]
                         for i in range(kk):
-                            extra += h * c * km[i] * pf[s, j, i]
-                            drive -= c * km[i] * x[oy + j * kk + i] * ef[s, j, i]
+                            drive -= cf[s, j, i] * x[oy + j * kk + i]
                     mn = (m * (1.0 + extra) + h * drive) / (1.0 + h * fs + extra)
                     x[om + j] = mn
                     if uns:
+                        dmn = mn - m
                         for i in range(kk):
-                            x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + (mn - m) * pf[s, j, i]
+                            x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + dmn * pf[s, j, i]
             for j in range(nn - 1):
                 mach = max(mach, element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2,
                                               area, rt, c2))
@@ -497,11 +514,11 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     cap = pv[s, k] / rt
                     rhs_ = h * flow
                     if the:
-                        sa = 0.0
+                        acc_w = 0.0
                         for i in range(kk):
-                            sa += ka[i] * pt[s, k, i]
-                            rhs_ += cap * kappa * ka[i] * x[ow + k * kk + i] * (et[s, k, i] - 1.0)
-                        dp = rhs_ / (cap * (1.0 - kappa * sa) - h * g)
+                            acc_w += ch[s, k, i] * x[ow + k * kk + i]
+                        rhs_ += cap * acc_w
+                        dp = rhs_ / (cap * (1.0 - kappa * work[s, k, w0 + 6]) - h * g)
                         for i in range(kk):
                             x[ow + k * kk + i] = x[ow + k * kk + i] * et[s, k, i] + dp * pt[s, k, i]
                     else:
@@ -557,4 +574,4 @@ def first_bad(x, off, ps, vmax):
 
 def work_array(pv, kn):
     """Zeroed scratch array for :func:`advance`."""
-    return np.zeros((2, pv.shape[1], 4 * kn.size + 6))
+    return np.zeros((2, pv.shape[1], 6 * kn.size + 7))

@@ -172,15 +172,18 @@ def _first_time(t, frac, level: float) -> float | None:
 def step_metrics(ds, half: float, supply: float, atm: float) -> dict:
     """Chamber pressurisation: share of the step reached at the reversal (%), 10 % delay and
     10-90 % rise time (s, None if not reached), overshoot and ripple (peak-to-peak over the last
-    quarter of the charging half; % of the step) and the largest valve-chamber gap while charging
-    (Pa)."""
+    quarter of the charging half; % of the step), the largest valve-chamber gap while charging
+    (Pa), and the largest Mach number of the line's flow elements over the whole test (0 for
+    models without flow elements)."""
     t = ds.time.values
     on = t <= half
     pc = ds.pressure_chamber.sel(side=1).values[on]
     pv = ds.pressure_valve.sel(side=1).values[on]
     frac = (pc - atm) / (supply - atm)
     t10, t90 = _first_time(t[on], frac, 0.1), _first_time(t[on], frac, 0.9)
+    mach = ds.line_max_mach.sel(side=1).values
     return {"reached_pct": float(100.0 * frac[-1]), "delay_10pct_s": t10,
+            "max_mach": float(np.nanmax(mach)),
             "rise_10_90_s": None if t90 is None else t90 - t10,
             "overshoot_pct": float(100.0 * max(0.0, frac.max() - 1.0)),
             "ripple_pct": float(100.0 * np.ptp(frac[t[on] >= 0.75 * half])),
