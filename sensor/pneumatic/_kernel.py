@@ -27,15 +27,37 @@ RT, MU, GAMMA, PR, PATM, PSUP, BCRIT, RLAM, KREF = 0, 1, 2, 3, 4, 5, 6, 7, 8
 A1, A2, AROD, STROKE, VD1, VD2, MASS, VISC, FC, VS = 9, 10, 11, 12, 13, 14, 15, 16, 17, 18
 KLEAK, KSTOP, CSTOP, RPOLY, FIXED = 19, 20, 21, 22, 23
 ENV_ATTACHED, ENV_K, ENV_B, ENV_M, ENV_Z0 = 24, 25, 26, 27, 28
-N_COMMON = 29
+STICK, FS, VST = 29, 30, 31            # Karnopp stick-slip on (1), static friction F_s, Stribeck velocity
+ENERGY, HA1, HA2 = 32, 33, 34          # chamber energy equation on (1), wall conductances h A (W/K)
+SPOOL_ORDER, SPOOL_W = 35, 36          # spool dynamics 0 (ideal), 1 or 2; bandwidth (rad/s)
+SP_A00, SP_A01, SP_A10, SP_A11 = 37, 38, 39, 40   # exact spool step matrix (filled per substep h)
+OX = 41                                # index of the first extra state (chamber masses, spool)
+T_AIR = 42                             # line (and wall) temperature T (K)
+N_COMMON = 43
+SPOOL_DAMPING = 1.0 / math.sqrt(2.0)   # second-order spool: -3 dB at the natural frequency
+# extra states after both side blocks: x[OX + s] chamber-node gas mass of side s (kg),
+# x[OX + 2] spool position (normalised command), x[OX + 3] its rate (1/s)
+X_SPOOL, X_SPOOL_RATE = 2, 3
+N_EXTRA = 4
 # side parameters ps[s, ...]
 S_NN, S_INERT, S_BORE, S_LAW, S_UNSTEADY, S_THERMAL, S_DELAY, S_ATTEN, S_LEN = 0, 1, 2, 3, 4, 5, 6, 7, 8
-N_SIDE = 9
+S_CONVECT, S_AREA, S_MACH_LIMIT = 9, 10, 11
+N_SIDE = 12
+LAW_RESISTIVE = 2   # friction law of the preliminary model (eqs 7-13): algebraic flow a (P_a - P_b)
 NU_TOL = 0.01   # relative viscosity change that triggers new relaxation factors
 # fast-math flags without no-NaN / no-Inf, so the runaway check still sees NaN and Inf
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 # offsets off[s, ...]
 O_P, O_M, O_Y, O_W = 0, 1, 2, 3
+# accumulators acc[...] of one control period
+A_VALVE, A_CHAMBER, A_FORCE, A_MACH = 0, 2, 4, 5
+N_ACC = 7
+
+
+@njit(cache=True)
+def pow075(x):
+    """x^0.75 for x >= 0 as sqrt(x sqrt(x)) (two square roots are much cheaper than pow)."""
+    return math.sqrt(x * math.sqrt(x))
 
 
 @njit(cache=True)
@@ -44,11 +66,11 @@ def steady_coefficient(mdot, nu, bore, law, mu):
     re = 4.0 * abs(mdot) / (math.pi * bore * mu)
     lam = 32.0 * nu / (bore * bore)
     if law == 0:
-        return lam + 0.158 * re**0.75 * nu / (bore * bore)
+        return lam + 0.158 * pow075(re) * nu / (bore * bore)
     if re <= 2300.0:
         return lam
     if re >= 4000.0:
-        return 0.158 * re**0.75 * nu / (bore * bore)
+        return 0.158 * pow075(re) * nu / (bore * bore)
     t4000 = 0.158 * 4000.0**0.75 * nu / (bore * bore)
     return lam + (t4000 - lam) * (re - 2300.0) / 1700.0
 
@@ -58,10 +80,58 @@ def rh_attenuation(mdot, pressure, pc, ps_s):
     """Richer-Hurmuzlu attenuation factor exp(-R_t R T L / (2 P c)) (eqs 4-5)."""
     bore = ps_s[S_BORE]
     re = 4.0 * abs(mdot) / (math.pi * bore * pc[MU])
-    coef = 32.0 if re <= 2300.0 else 0.158 * re**0.75
+    coef = 32.0 if re <= 2300.0 else 0.158 * pow075(re)
     rt = coef * pc[MU] / (bore * bore)
     c = math.sqrt(pc[GAMMA] * pc[RT])
     return math.exp(-rt * pc[RT] * ps_s[S_LEN] / (2.0 * max(pressure, 1.0) * c))
+
+
+@njit(cache=True)
+def resistive_conductance(valve_flow, p_port, pc, ps_s):
+    """a = rho A / (L R_t) of eq 10 (kg/(s Pa)): rho from the valve-port pressure (eq 11), R_t of
+    eq 5 at the Reynolds number of the valve flow at that pressure (the preliminary model)."""
+    bore = ps_s[S_BORE]
+    re = 4.0 * abs(valve_flow) / (math.pi * bore * pc[MU])
+    coef = 32.0 if re <= 2300.0 else 0.158 * pow075(re)
+    return (p_port / pc[RT]) * ps_s[S_AREA] / (ps_s[S_LEN] * coef * pc[MU] / (bore * bore))
+
+
+@njit(cache=True)
+def end_thrust(m, p, area, rt):
+    """A P + m^2 R T / (A P) (N): pressure plus momentum flux through a tube end face, limited by
+    isothermal choking - once the face velocity would exceed sqrt(R T) (Mach 1 / sqrt(gamma)) the
+    gas leaves at the sonic pressure m sqrt(R T) / A above P and the thrust is 2 |m| sqrt(R T)."""
+    c = math.sqrt(rt)
+    if area * p >= abs(m) * c:
+        return area * p + m * m * rt / (area * p)
+    return 2.0 * abs(m) * c
+
+
+@njit(cache=True)
+def face_thrusts(x, op, om, nn, area, rt, phi):
+    """Thrust (A P + momentum flux, N) at every node face of a segmented tube into phi[:nn].
+
+    Interior nodes carry the momentum of the upwind element at the mean node flow (donor cell);
+    the two end faces carry their element's flow at the node density (:func:`end_thrust`)."""
+    phi[0] = end_thrust(x[om], x[op], area, rt)
+    phi[nn - 1] = end_thrust(x[om + nn - 2], x[op + nn - 1], area, rt)
+    for k in range(1, nn - 1):
+        ma, mb = x[om + k - 1], x[om + k]
+        mean = 0.5 * (ma + mb)
+        up = ma if mean >= 0.0 else mb
+        phi[k] = area * x[op + k] + mean * up * rt / (area * x[op + k])
+
+
+@njit(cache=True)
+def element_mach(m, pa, pb, first, last, area, rt, c2):
+    """Mach number |m| R T / (A P c) of a flow element at the mean of its face pressures; a tube
+    end face counts at no less than its choked pressure |m| sqrt(R T) / A (:func:`end_thrust`)."""
+    sonic = abs(m) * math.sqrt(rt) / area
+    if first:
+        pa = max(pa, sonic)
+    if last:
+        pb = max(pb, sonic)
+    return abs(m) * 2.0 * rt / (area * (pa + pb) * math.sqrt(c2))
 
 
 @njit(cache=True)
@@ -73,13 +143,29 @@ def chamber_volumes(z, v, pc):
 
 
 @njit(cache=True)
-def piston_forces(z, v, p1, p2, pc):
-    """(net force without inertia, d/dz, d/dv, spring-damper part of F_e) on the piston (N)."""
+def sliding_friction(v, pc):
+    """Dry friction magnitude (N) while sliding at v: Coulomb F_c, plus the Stribeck rise to the
+    static friction F_s at low speed when stick-slip is on, F_c + (F_s - F_c) exp(-(v / v_st)^2)."""
+    if pc[STICK] > 0.5:
+        return pc[FC] + (pc[FS] - pc[FC]) * math.exp(-(v / pc[VST]) ** 2)
+    return pc[FC]
+
+
+@njit(cache=True)
+def piston_forces(z, v, p1, p2, pc, dry=True):
+    """(net force without inertia, d/dz, d/dv, spring-damper part of F_e) on the piston (N).
+
+    dry: include the dry friction, smoothed as F(v) tanh(v / v_s) (eq 18's Coulomb term with the
+    Stribeck curve of :func:`sliding_friction`); the stepper handles stick-slip itself (dry=False)."""
     fp = p1 * pc[A1] - p2 * pc[A2] - pc[PATM] * pc[AROD]
-    th = math.tanh(v / pc[VS])
-    f = fp - pc[VISC] * v - pc[FC] * th
+    f = fp - pc[VISC] * v
     fz = 0.0
-    fv = -pc[VISC] - pc[FC] * (1.0 - th * th) / pc[VS]
+    fv = -pc[VISC]
+    if dry:
+        th = math.tanh(v / pc[VS])
+        fd = sliding_friction(v, pc)
+        f -= fd * th
+        fv -= fd * (1.0 - th * th) / pc[VS]
     fe = 0.0
     if pc[ENV_ATTACHED] > 0.5:
         fe = pc[ENV_K] * (z - pc[ENV_Z0]) + pc[ENV_B] * v
@@ -106,6 +192,22 @@ def piston_forces(z, v, p1, p2, pc):
 
 
 @njit(cache=True)
+def chamber_dp(p, mass, flow, vol, dvol, s, pc):
+    """dP/dt of a chamber node: eq 15 with exponent r, or (pc[ENERGY]) the energy equation
+    V dP/dt = gamma R T_in m_dot - gamma P dV/dt + (gamma - 1) h A (T_w - T), T = P V / (m R),
+    where inflow enters at the line temperature and outflow leaves at the chamber's own T."""
+    rt = pc[RT]
+    if pc[ENERGY] > 0.5:
+        gam = pc[GAMMA]
+        t_ch = p * vol / (mass * (rt / pc[T_AIR]))
+        rt_in = rt if flow >= 0.0 else rt * t_ch / pc[T_AIR]
+        ha = pc[HA1] if s == 0 else pc[HA2]
+        return (gam * rt_in * flow - gam * p * dvol + (gam - 1.0) * ha * (pc[T_AIR] - t_ch)) / vol
+    r = pc[RPOLY]
+    return r * (rt * flow - p * dvol) / vol
+
+
+@njit(cache=True)
 def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
     """Continuous time derivative of the plant state (no transport delay).
 
@@ -115,6 +217,7 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
     kappa = (gam - 1.0) / gam
     kk = kn.size
+    ox = int(pc[OX])
     z, v = x[0], x[1]
     vol1, vol2, dv1, dv2 = chamber_volumes(z, v, pc)
     pch = np.empty(2)
@@ -125,34 +228,55 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
         dx[0] = v
         dx[1] = f / (pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0))
     leak = pc[KLEAK] * (pch[0] - pch[1]) if pc[FIXED] < 0.5 else 0.0
+    us = u
+    if pc[SPOOL_ORDER] > 0.5:
+        us = x[ox + X_SPOOL]
+        w = pc[SPOOL_W]
+        if pc[SPOOL_ORDER] < 1.5:
+            dx[ox + X_SPOOL] = w * (u - us)
+        else:
+            dx[ox + X_SPOOL] = x[ox + X_SPOOL_RATE]
+            dx[ox + X_SPOOL_RATE] = w * w * (u - us) - SPOOL_DAMPING * 2.0 * w * x[ox + X_SPOOL_RATE]
+    phi = np.empty(int(ps[:, S_NN].max()))
     for s in range(2):
         nn = int(ps[s, S_NN])
         op, om, oy, ow = off[s, O_P], off[s, O_M], off[s, O_Y], off[s, O_W]
         bore = ps[s, S_BORE]
         uns = ps[s, S_UNSTEADY] > 0.5
         the = ps[s, S_THERMAL] > 0.5
+        sgn = 1.0 if s == 0 else -1.0
+        mv, _ = port_flow(sgn * us, grid, csup, cexh, pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[PATM], pc[KREF])
+        resistive = ps[s, S_LAW] == LAW_RESISTIVE
+        if ps[s, S_CONVECT] > 0.5 and nn > 1:
+            face_thrusts(x, op, om, nn, ps[s, S_AREA], rt, phi)
+        flows = np.empty(max(nn - 1, 1))
         for j in range(nn - 1):
             pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
+            if resistive:
+                flows[j] = resistive_conductance(mv, x[op], pc, ps[s]) * (pa - pb)
+                continue
+            flows[j] = m
             nu = mu * 2.0 * rt / (pa + pb)
             fric = steady_coefficient(m, nu, bore, ps[s, S_LAW], mu) * m
             if uns:
                 c16 = 16.0 * nu / (bore * bore)
                 for i in range(kk):
                     fric += c16 * km[i] * x[oy + j * kk + i]
-            dm = ps[s, S_INERT] * (pa - pb) - fric
+            if ps[s, S_CONVECT] > 0.5:
+                dm = ps[s, S_INERT] / ps[s, S_AREA] * (phi[j] - phi[j + 1]) - fric
+            else:
+                dm = ps[s, S_INERT] * (pa - pb) - fric
             dx[om + j] = dm
             if uns:
                 for i in range(kk):
                     beta = 4.0 * nu * kn[i] / (bore * bore)
                     dx[oy + j * kk + i] = dm - beta * x[oy + j * kk + i]
-        sgn = 1.0 if s == 0 else -1.0
-        mv, _ = port_flow(sgn * u, grid, csup, cexh, pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[PATM], pc[KREF])
         for k in range(nn):
             flow = 0.0
             if k > 0:
-                flow += x[om + k - 1]
+                flow += flows[k - 1]
             if k < nn - 1:
-                flow -= x[om + k]
+                flow -= flows[k]
             if k == 0:
                 if ps[s, S_ATTEN] > 0.5:
                     flow += mv * rh_attenuation(mv, x[op], pc, ps[s])
@@ -161,11 +285,9 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
             p = x[op + k]
             if k == nn - 1:
                 flow += -leak if s == 0 else leak
-                vch = vol1 if s == 0 else vol2
-                dvch = dv1 if s == 0 else dv2
-                vol = pv[s, k] + vch
-                r = pc[RPOLY]
-                dp = r * (rt * flow - p * dvch) / vol
+                vol = pv[s, k] + (vol1 if s == 0 else vol2)
+                dp = chamber_dp(p, x[ox + s], flow, vol, dv1 if s == 0 else dv2, s, pc)
+                dx[ox + s] = flow
             elif the:
                 nu = mu * rt / p
                 sumw = 0.0
@@ -185,68 +307,132 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
     return dx
 
 
+@njit(cache=True)
+def spool_step(x, u, pc):
+    """Advance the spool state by one substep (exact for the held command) and return the spool
+    position; with ideal spool dynamics the position is the command itself."""
+    ox = int(pc[OX])
+    order = pc[SPOOL_ORDER]
+    if order < 0.5:
+        x[ox + X_SPOOL] = u
+        return u
+    y, r = x[ox + X_SPOOL] - u, x[ox + X_SPOOL_RATE]
+    if order < 1.5:
+        x[ox + X_SPOOL] = u + pc[SP_A00] * y
+        return x[ox + X_SPOOL]
+    x[ox + X_SPOOL] = u + pc[SP_A00] * y + pc[SP_A01] * r
+    x[ox + X_SPOOL_RATE] = pc[SP_A10] * y + pc[SP_A11] * r
+    return x[ox + X_SPOOL]
+
+
+@njit(cache=True)
+def piston_step(x, h, p_c1, p_c2, pc, mass_eff):
+    """One linearly implicit substep of the piston (z, v); Karnopp stick-slip when pc[STICK]:
+    at rest the piston stays stuck while the applied force is within the static friction F_s, and a
+    sliding piston whose velocity would change sign in the step stops (sticks) instead."""
+    z, v = x[0], x[1]
+    if pc[STICK] < 0.5:
+        f, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, True)
+        vn = (v + h / mass_eff * (f - fv * v)) / (1.0 - h / mass_eff * (fz * h + fv))
+    else:
+        fa, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, False)
+        if v == 0.0:
+            if abs(fa) <= pc[FS]:
+                return
+            d = 1.0 if fa > 0.0 else -1.0
+        else:
+            d = 1.0 if v > 0.0 else -1.0
+        f = fa - d * sliding_friction(v, pc)
+        vn = (v + h / mass_eff * (f - fv * v)) / (1.0 - h / mass_eff * (fz * h + fv))
+        if vn * d < 0.0:
+            vn = 0.0
+    x[1] = vn
+    x[0] = z + h * vn
+
+
 @njit(cache=True, fastmath=FAST)
 def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work):
     """Advance the state x in place by nsub substeps of h seconds at valve command u.
 
     ring[s, :] holds past valve flows of a Richer-Hurmuzlu side (delay ps[s, S_DELAY] substeps,
-    head the current ring index, returned updated).  acc[s] accumulates the valve mass (kg)
-    delivered into side s, acc[2 + s] the mass delivered into its chamber; acc[4] is the
-    environment force F_e (N) at the end of the step.  work: scratch of shape
-    (2, nodes, 4 K + 5), zero on the first call (see :func:`work_array`).  Returns (head, index of the first
-    non-finite or runaway state or -1, see :func:`first_bad`)."""
+    head the current ring index, returned updated).  acc[A_VALVE + s] accumulates the valve mass
+    (kg) delivered into side s, acc[A_CHAMBER + s] the mass delivered into its chamber; acc[A_FORCE]
+    is the environment force F_e (N) at the end of the step and acc[A_MACH + s] the largest Mach
+    number |m| R T / (A P c) of side s's flow elements during the step.  work: scratch of shape (2, nodes, 6 K + 7),
+    zero on the first call (see :func:`work_array`).  Returns (head, index of the first non-finite
+    or runaway state or -1, see :func:`first_bad`)."""
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
     kappa = (gam - 1.0) / gam
+    c2 = gam * rt
     kk = kn.size
+    ox = int(pc[OX])
     nring = ring.shape[1]
     mass_eff = pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0)
     # relaxation factors e = exp(-beta h) and phi = (1 - e) / (beta h) of each element (friction)
-    # and tube node (heat transfer), kept in work[s, j] and recomputed only when the local
-    # kinematic viscosity has moved by more than NU_TOL since they were computed
+    # and tube node (heat transfer), and the sums the steps need, kept in work[s, j] and recomputed
+    # only when the local kinematic viscosity has moved by more than NU_TOL since they were computed
     ef = work[:, :, 0:kk]
     pf = work[:, :, kk:2 * kk]
     et = work[:, :, 2 * kk:3 * kk]
     pt = work[:, :, 3 * kk:4 * kk]
-    c16 = work[:, :, 4 * kk]
+    cf = work[:, :, 4 * kk:5 * kk]     # (16 nu / D^2) m_i e_i: weight of y_i in the friction drive
+    ch = work[:, :, 5 * kk:6 * kk]     # kappa a_i (e_i - 1): weight of w_i in the node update
+    w0 = 6 * kk                        # scalars: nu_f, nu_t, h_f, h_t, thrust, extra, sum a_i phi_i
     for s in range(2):
         op = off[s, O_P]
         d2 = ps[s, S_BORE] * ps[s, S_BORE]
         for j in range(int(ps[s, S_NN]) - 1):
             nu = mu * 2.0 * rt / (x[op + j] + x[op + j + 1])
-            if abs(nu - work[s, j, 4 * kk + 1]) > NU_TOL * nu or work[s, j, 4 * kk + 3] != h:
-                work[s, j, 4 * kk + 1] = nu
-                work[s, j, 4 * kk + 3] = h
-                c16[s, j] = 16.0 * nu / d2
+            if abs(nu - work[s, j, w0]) > NU_TOL * nu or work[s, j, w0 + 2] != h:
+                work[s, j, w0] = nu
+                work[s, j, w0 + 2] = h
+                c16 = 16.0 * nu / d2
+                extra = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / d2 * h
                     ef[s, j, i] = math.exp(-bh)
                     pf[s, j, i] = -math.expm1(-bh) / bh
+                    cf[s, j, i] = c16 * km[i] * ef[s, j, i]
+                    extra += h * c16 * km[i] * pf[s, j, i]
+                work[s, j, w0 + 5] = extra
             nu = mu * rt / x[op + j]
-            if abs(nu - work[s, j, 4 * kk + 2]) > NU_TOL * nu or work[s, j, 4 * kk + 4] != h:
-                work[s, j, 4 * kk + 2] = nu
-                work[s, j, 4 * kk + 4] = h
+            if abs(nu - work[s, j, w0 + 1]) > NU_TOL * nu or work[s, j, w0 + 3] != h:
+                work[s, j, w0 + 1] = nu
+                work[s, j, w0 + 3] = h
+                sa = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
                     et[s, j, i] = math.exp(-bh)
                     pt[s, j, i] = -math.expm1(-bh) / bh
+                    ch[s, j, i] = kappa * ka[i] * (et[s, j, i] - 1.0)
+                    sa += ka[i] * pt[s, j, i]
+                work[s, j, w0 + 6] = sa
     cond = np.empty((2, 2))   # (side, supply / exhaust) conductance at this command
+    spool = pc[SPOOL_ORDER] > 0.5
     for s in range(2):
         us = u if s == 0 else -u
         cond[s, 0] = np.interp(us, grid, csup)
         cond[s, 1] = np.interp(us, grid, cexh)
+    acc[A_MACH] = 0.0
+    acc[A_MACH + 1] = 0.0
     for _ in range(nsub):
-        z, v = x[0], x[1]
-        vol1, vol2, _, _ = chamber_volumes(z, v, pc)
+        if spool:
+            ua = spool_step(x, u, pc)
+            for s in range(2):
+                us = ua if s == 0 else -ua
+                cond[s, 0] = np.interp(us, grid, csup)
+                cond[s, 1] = np.interp(us, grid, cexh)
+        else:
+            x[ox + X_SPOOL] = u
+        vol1, vol2, _, _ = chamber_volumes(x[0], x[1], pc)
         p_c1 = x[off[0, O_P] + int(ps[0, S_NN]) - 1]
         p_c2 = x[off[1, O_P] + int(ps[1, S_NN]) - 1]
         # (1) piston
         if pc[FIXED] < 0.5:
-            f, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc)
-            vn = (v + h / mass_eff * (f - fv * v)) / (1.0 - h / mass_eff * (fz * h + fv))
-            x[1] = vn
-            x[0] = z + h * vn
-            _, _, _, fe = piston_forces(x[0], vn, p_c1, p_c2, pc)
-            acc[4] = fe + (pc[ENV_M] * (vn - v) / h if pc[ENV_ATTACHED] > 0.5 else 0.0)
+            v = x[1]
+            piston_step(x, h, p_c1, p_c2, pc, mass_eff)
+            _, _, _, fe = piston_forces(x[0], x[1], p_c1, p_c2, pc, True)
+            acc[A_FORCE] = fe + (pc[ENV_M] * (x[1] - v) / h if pc[ENV_ATTACHED] > 0.5 else 0.0)
         nvol1, nvol2, _, _ = chamber_volumes(x[0], x[1], pc)
         leak = pc[KLEAK] * (p_c1 - p_c2) if pc[FIXED] < 0.5 else 0.0
         head = (head + 1) % nring
@@ -254,35 +440,52 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
             nn = int(ps[s, S_NN])
             op, om, oy, ow = off[s, O_P], off[s, O_M], off[s, O_Y], off[s, O_W]
             bore = ps[s, S_BORE]
-            d2 = bore * bore
+            area = ps[s, S_AREA]
             uns = ps[s, S_UNSTEADY] > 0.5
             the = ps[s, S_THERMAL] > 0.5
-            # (2) element flows
-            for j in range(nn - 1):
-                pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
-                fs = steady_coefficient(m, mu * 2.0 * rt / (pa + pb), bore, ps[s, S_LAW], mu)
-                drive = ps[s, S_INERT] * (pa - pb)
-                extra = 0.0
-                if uns:
-                    c = c16[s, j]
-                    for i in range(kk):
-                        extra += h * c * km[i] * pf[s, j, i]
-                        drive -= c * km[i] * x[oy + j * kk + i] * ef[s, j, i]
-                mn = (m * (1.0 + extra) + h * drive) / (1.0 + h * fs + extra)
-                x[om + j] = mn
-                if uns:
-                    for i in range(kk):
-                        x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + (mn - m) * pf[s, j, i]
-            # (3) nodes
             m_in, _, din = orifice_flow(cond[s, 0], pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[KREF])
             m_out, dout, _ = orifice_flow(cond[s, 1], pc[BCRIT], pc[RLAM], x[op], pc[PATM], pc[KREF])
             mv, dmv = m_in - m_out, din - dout
+            mach = 0.0
+            # (2) element flows
+            if ps[s, S_LAW] == LAW_RESISTIVE:
+                a = resistive_conductance(mv, x[op], pc, ps[s])
+                for j in range(nn - 1):
+                    x[om + j] = a * (x[op + j] - x[op + j + 1])
+            else:
+                convect = ps[s, S_CONVECT] > 0.5
+                if convect:
+                    face_thrusts(x, op, om, nn, area, rt, work[s, :, w0 + 4])
+                inert = ps[s, S_INERT]
+                for j in range(nn - 1):
+                    pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
+                    fs = steady_coefficient(m, mu * 2.0 * rt / (pa + pb), bore, ps[s, S_LAW], mu)
+                    if convect:
+                        drive = inert / area * (work[s, j, w0 + 4] - work[s, j + 1, w0 + 4])
+                    else:
+                        drive = inert * (pa - pb)
+                    extra = 0.0
+                    if uns:
+                        extra = work[s, j, w0 + 5]
+                        for i in range(kk):
+                            drive -= cf[s, j, i] * x[oy + j * kk + i]
+                    mn = (m * (1.0 + extra) + h * drive) / (1.0 + h * fs + extra)
+                    x[om + j] = mn
+                    if uns:
+                        dmn = mn - m
+                        for i in range(kk):
+                            x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + dmn * pf[s, j, i]
+            for j in range(nn - 1):
+                mach = max(mach, element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2,
+                                              area, rt, c2))
+            acc[A_MACH + s] = max(acc[A_MACH + s], mach)
+            # (3) nodes
             delayed = ps[s, S_ATTEN] > 0.5
             if delayed:
                 ring[s, head] = mv
                 md = ring[s, (head - int(ps[s, S_DELAY])) % nring]
                 into_chamber = md * rh_attenuation(md, x[op], pc, ps[s])
-                acc[s] += h * mv
+                acc[A_VALVE + s] += h * mv
             for k in range(nn):
                 flow = 0.0
                 if k > 0:
@@ -301,33 +504,55 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     flow += -leak if s == 0 else leak
                     vo = pv[s, k] + (vol1 if s == 0 else vol2)
                     vn_ = pv[s, k] + (nvol1 if s == 0 else nvol2)
-                    r = pc[RPOLY]
-                    if r == 1.0:
-                        pn = (p * vo + h * rt * (flow - g * p)) / (vn_ - h * rt * g)
-                    else:
-                        fac = h * r * rt * vn_ ** (r - 1.0)
-                        pn = (p * vo**r + fac * (flow - g * p)) / (vn_**r - fac * g)
+                    pn = chamber_step(p, x[ox + s], flow, g, vo, vn_, h, s, pc)
+                    dm = h * (flow + g * (pn - p))
+                    x[ox + s] += dm
                     if k == 0:
-                        acc[s] += h * (mv + g * (pn - p)) if not delayed else 0.0
-                    acc[2 + s] += h * (flow + g * (pn - p) + (leak if s == 0 else -leak))
+                        acc[A_VALVE + s] += h * (mv + g * (pn - p)) if not delayed else 0.0
+                    acc[A_CHAMBER + s] += dm + h * (leak if s == 0 else -leak)
                 else:
                     cap = pv[s, k] / rt
                     rhs_ = h * flow
                     if the:
-                        sa = 0.0
+                        acc_w = 0.0
                         for i in range(kk):
-                            sa += ka[i] * pt[s, k, i]
-                            rhs_ += cap * kappa * ka[i] * x[ow + k * kk + i] * (et[s, k, i] - 1.0)
-                        dp = rhs_ / (cap * (1.0 - kappa * sa) - h * g)
+                            acc_w += ch[s, k, i] * x[ow + k * kk + i]
+                        rhs_ += cap * acc_w
+                        dp = rhs_ / (cap * (1.0 - kappa * work[s, k, w0 + 6]) - h * g)
                         for i in range(kk):
                             x[ow + k * kk + i] = x[ow + k * kk + i] * et[s, k, i] + dp * pt[s, k, i]
                     else:
                         dp = rhs_ / (cap - h * g)
                     pn = p + dp
                     if k == 0:
-                        acc[s] += h * (mv + g * dp)
+                        acc[A_VALVE + s] += h * (mv + g * dp)
                 x[op + k] = pn
     return head, first_bad(x, off, ps, vmax)
+
+
+@njit(cache=True)
+def chamber_step(p, mass, flow, g, vo, vn, h, s, pc):
+    """New chamber-node pressure after one substep, the valve flow (if this node is the port)
+    implicit through its slope g = d m_v / d P.  Eq 15: P V^r advanced with the polytropic form
+    (mass exact for r = 1).  Energy equation (pc[ENERGY]): E = P V advanced linearly implicitly,
+    E_n (1 + h (gamma - 1) h_A / (m_n R)) + (gamma - 1) P_n (V_n - V_o) = E_o + h (gamma R T_in m_dot
+    + (gamma - 1) h_A T_w), which tends to P_n = m_n R T_w / V_n as h_A grows (isothermal) and to
+    P V^gamma = const with h_A = 0 and no flow (adiabatic)."""
+    rt = pc[RT]
+    if pc[ENERGY] > 0.5:
+        gam = pc[GAMMA]
+        r_gas = rt / pc[T_AIR]
+        t_ch = p * vo / (mass * r_gas)
+        rt_in = rt if flow >= 0.0 else r_gas * t_ch
+        ha = pc[HA1] if s == 0 else pc[HA2]
+        m_n = mass + h * flow
+        den = vn * (1.0 + h * (gam - 1.0) * ha / (m_n * r_gas)) + (gam - 1.0) * (vn - vo) - h * gam * rt_in * g
+        return (p * vo + h * (gam * rt_in * (flow - g * p) + (gam - 1.0) * ha * pc[T_AIR])) / den
+    r = pc[RPOLY]
+    if r == 1.0:
+        return (p * vo + h * rt * (flow - g * p)) / (vn - h * rt * g)
+    fac = h * r * rt * vn ** (r - 1.0)
+    return (p * vo**r + fac * (flow - g * p)) / (vn**r - fac * g)
 
 
 @njit(cache=True)
@@ -349,4 +574,4 @@ def first_bad(x, off, ps, vmax):
 
 def work_array(pv, kn):
     """Zeroed scratch array for :func:`advance`."""
-    return np.zeros((2, pv.shape[1], 4 * kn.size + 5))
+    return np.zeros((2, pv.shape[1], 6 * kn.size + 7))

@@ -2,9 +2,15 @@
 
 Chamber 1 (cap side, area A1) grows with the piston position z in [0, stroke]; chamber 2
 (rod side, A2 = A1 - A_rod) shrinks.  Chamber pressure follows eq 15 with the polytropic
-exponent r (1 isothermal, the default, to 1.4 adiabatic).  The piston obeys eqs 17-18 with
-viscous damping B, Coulomb friction F_c (smoothed as F_c tanh(v / v_s)), laminar leakage
-across the piston m_leak = k_leak (P1 - P2) and stiff, damped end stops.
+exponent r (1 isothermal, the default, to 1.4 adiabatic), or, with ``wall_conductance_W_K``
+set, the energy equation of an ideal gas with wall heat transfer h A (T_w - T) (the chamber
+temperature T = P V / (m R) follows from the pressure and the chamber's gas-mass state; h A = 0
+is adiabatic, h A -> infinity isothermal).  The piston obeys eqs 17-18 with viscous damping B,
+dry friction, laminar leakage across the piston m_leak = k_leak (P1 - P2) and stiff, damped end
+stops.  Dry friction: by default Coulomb F_c smoothed as F_c tanh(v / v_s); with ``stiction_N``
+> 0 a Karnopp stick-slip model - the piston at rest stays stuck while the applied force is at most
+the static friction F_s, and slides against the Stribeck curve F_c + (F_s - F_c) exp(-(v/v_st)^2)
+(the thesis measured 0.25 N of stiction on its Airpel cylinder, section 5.4).
 """
 from __future__ import annotations
 
@@ -12,6 +18,19 @@ import math
 from dataclasses import dataclass
 
 from sensor.errors import SensorInputError
+
+
+def _check_energy(obj) -> None:
+    """The energy-equation switch: None (eq 15) or a wall conductance h A >= 0 with r left at 1."""
+    ha = obj.wall_conductance_W_K
+    if ha is None:
+        return
+    if not (math.isfinite(ha) and ha >= 0):
+        raise SensorInputError(f"{type(obj).__name__.lower()} wall_conductance_W_K = {ha!r}: must be None "
+                               "or a finite number >= 0")
+    if obj.polytropic != 1.0:
+        raise SensorInputError(f"{type(obj).__name__.lower()} polytropic = {obj.polytropic!r}: must stay 1 "
+                               "when wall_conductance_W_K selects the energy equation (which replaces eq 15)")
 
 
 def _check(obj, names: tuple[str, ...], strict: bool) -> None:
@@ -41,16 +60,24 @@ class Cylinder:
     stop_stiffness_N_m: float = 1.0e6
     stop_damping_N_s_m: float = 200.0
     polytropic: float = 1.0
+    stiction_N: float = 0.0
+    stribeck_velocity_m_s: float = 0.01
+    wall_conductance_W_K: float | None = None
 
     def __post_init__(self) -> None:
         _check(self, ("bore_m", "stroke_m", "dead_volume_1_m3", "dead_volume_2_m3",
-                      "piston_mass_kg", "coulomb_velocity_m_s", "stop_stiffness_N_m"), True)
+                      "piston_mass_kg", "coulomb_velocity_m_s", "stop_stiffness_N_m",
+                      "stribeck_velocity_m_s"), True)
         _check(self, ("rod_m", "viscous_N_s_m", "coulomb_N", "leak_kg_s_Pa",
-                      "stop_damping_N_s_m"), False)
+                      "stop_damping_N_s_m", "stiction_N"), False)
+        if 0.0 < self.stiction_N < self.coulomb_N:
+            raise SensorInputError(f"cylinder stiction_N = {self.stiction_N!r}: must be 0 (no stick-slip) or "
+                                   f">= coulomb_N = {self.coulomb_N!r}")
         if self.rod_m >= self.bore_m:
             raise SensorInputError(f"cylinder rod_m = {self.rod_m!r}: must be smaller than bore_m = {self.bore_m!r}")
         if not 1.0 <= self.polytropic <= 1.4:
             raise SensorInputError(f"cylinder polytropic = {self.polytropic!r}: must lie in [1, 1.4] (eq 15)")
+        _check_energy(self)
 
     @property
     def area_1_m2(self) -> float:
@@ -81,11 +108,13 @@ class FixedChambers:
     volume_1_m3: float = 4.5e-5
     volume_2_m3: float = 4.5e-5
     polytropic: float = 1.0
+    wall_conductance_W_K: float | None = None
 
     def __post_init__(self) -> None:
         _check(self, ("volume_1_m3", "volume_2_m3"), True)
         if not 1.0 <= self.polytropic <= 1.4:
             raise SensorInputError(f"fixedchambers polytropic = {self.polytropic!r}: must lie in [1, 1.4] (eq 15)")
+        _check_energy(self)
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,14 @@ elements, the last node being merged with the actuator chamber:
   eq 5).  The attenuation removes mass (a property of the model, not of the physics).
 * :class:`TwoVolume` - eqs 54-58: two nodes (half the line at the valve, half merged with the
   chamber) and one inertial flow with the average friction of eq 57 and density of eq 58.
+* :class:`Preliminary` - eqs 7-13, the thesis' preliminary model (section 3.3.2): the line is an
+  isothermal intermediate volume in series with the chamber, joined by a steady (inertia-free)
+  resistive flow m_f = a (P_line - P_chamber), a = rho A / (L R_t) (eq 10), with rho from the
+  valve-port pressure (eq 11) and R_t of eq 5 at the Reynolds number of the valve flow.
 * :class:`Distributed` - N segments: N + 1 nodes (half-segment volumes at both ends) and N
-  flows.  Steady friction is Hagen-Poiseuille below Re = 2300, Blasius above Re = 4000 and
+  flows with convective momentum (donor cell), choking at the tube ends (isothermal: the face
+  velocity cannot pass sqrt(R T), Mach 1 / sqrt(gamma)) and a stop beyond Mach 1, where the
+  model (no shocks, isothermal gas) leaves its range.  Steady friction is Hagen-Poiseuille below Re = 2300, Blasius above Re = 4000 and
   linearly blended between; frequency-dependent (unsteady laminar) friction and wall heat
   transfer use the fitted exponential kernels of :mod:`sensor.pneumatic.unsteady`, so the gas
   is isothermal for steady and slow flow and tends to adiabatic at high frequency.  With both
@@ -29,6 +35,8 @@ from sensor.errors import SensorInputError
 
 LAW_EQ57 = 0      # (32 + 0.158 Re^0.75) mu / (rho D^2), eq 57
 LAW_BLEND = 1     # Hagen-Poiseuille / blend / Blasius
+LAW_RESISTIVE = 2  # eq 10: steady resistive flow, no inertia (the preliminary model)
+MACH_LIMIT = 1.0  # the distributed line stops beyond this element Mach number
 
 
 @dataclass(frozen=True)
@@ -45,6 +53,8 @@ class LineLayout:
     heat_transfer: bool
     delay_s: float
     attenuation: bool
+    convective: bool = False
+    mach_limit: float = math.inf
 
 
 def _check_geometry(length_m: float, bore_m: float, allow_zero_length: bool = False) -> None:
@@ -118,12 +128,25 @@ class TwoVolume(DeadVolume):
 
 
 @dataclass(frozen=True)
+class Preliminary(TwoVolume):
+    """The thesis' preliminary model (eqs 7-13): line volume and chamber joined by a steady
+    resistive flow a (P_line - P_chamber), a = rho A / (L R_t) from the valve-port pressure."""
+
+    def layout(self) -> LineLayout:
+        return LineLayout((self.volume_m3, 0.0), 0.0, self.bore_m, self.area_m2, self.length_m,
+                          LAW_RESISTIVE, False, False, 0.0, False)
+
+
+@dataclass(frozen=True)
 class Distributed(DeadVolume):
-    """N-segment line with frequency-dependent friction and heat transfer (high fidelity)."""
+    """N-segment line with frequency-dependent friction and heat transfer (high fidelity).
+
+    convective: momentum flux and choking (False gives the acoustic line of earlier versions)."""
 
     segments: int = 20
     unsteady_friction: bool = True
     heat_transfer: bool = True
+    convective: bool = True
 
     def __post_init__(self) -> None:
         _check_geometry(self.length_m, self.bore_m)
@@ -136,15 +159,16 @@ class Distributed(DeadVolume):
         vols = (seg / 2.0,) + (seg,) * (n - 1) + (seg / 2.0,)
         return LineLayout(vols, self.area_m2 * n / self.length_m, self.bore_m, self.area_m2,
                           self.length_m, LAW_BLEND, self.unsteady_friction, self.heat_transfer,
-                          0.0, False)
+                          0.0, False, self.convective, MACH_LIMIT)
 
 
-LINE_MODELS = {"dead-volume": DeadVolume, "richer-hurmuzlu": RicherHurmuzlu,
+LINE_MODELS = {"dead-volume": DeadVolume, "richer-hurmuzlu": RicherHurmuzlu, "preliminary": Preliminary,
                "two-volume": TwoVolume, "distributed": Distributed}
+"""Every line model by its name: the one list the CLI, the analysis and the plots use."""
 
 
 def make_line(model: str, length_m: float, bore_m: float = 0.004, **options):
-    """Build a line model by its CLI name (dead-volume, richer-hurmuzlu, two-volume, distributed)."""
+    """Build a line model by its name in :data:`LINE_MODELS`."""
     if model not in LINE_MODELS:
         raise SensorInputError(f"line model = {model!r}: must be one of {', '.join(LINE_MODELS)}")
     return LINE_MODELS[model](length_m, bore_m, **options)

@@ -15,7 +15,7 @@ from sensor.errors import SensorInputError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.air import AIR, Air
 from sensor.pneumatic.cylinder import Cylinder, Environment, FixedChambers
-from sensor.pneumatic.lines import Distributed, RicherHurmuzlu
+from sensor.pneumatic.lines import LAW_RESISTIVE, Distributed, RicherHurmuzlu
 from sensor.pneumatic.unsteady import fitted_kernels
 from sensor.pneumatic.valve import FESTO_MPYE, Valve
 
@@ -43,7 +43,7 @@ class Plant:
         for name in ("line_1", "line_2"):
             if not hasattr(getattr(self, name), "layout"):
                 raise SensorInputError(f"plant {name}: must be a line model (DeadVolume, RicherHurmuzlu, "
-                                  "TwoVolume or Distributed)")
+                                       "Preliminary, TwoVolume or Distributed)")
 
     def compile(self) -> "CompiledPlant":
         return CompiledPlant(self)
@@ -75,6 +75,15 @@ class CompiledPlant:
             pc[K.MASS], pc[K.VISC], pc[K.FC] = act.piston_mass_kg, act.viscous_N_s_m, act.coulomb_N
             pc[K.VS], pc[K.KLEAK] = act.coulomb_velocity_m_s, act.leak_kg_s_Pa
             pc[K.KSTOP], pc[K.CSTOP], pc[K.RPOLY] = act.stop_stiffness_N_m, act.stop_damping_N_s_m, act.polytropic
+            pc[K.STICK] = 1.0 if act.stiction_N > 0 else 0.0
+            pc[K.FS], pc[K.VST] = act.stiction_N, act.stribeck_velocity_m_s
+        if act.wall_conductance_W_K is not None:
+            pc[K.ENERGY] = 1.0
+            pc[K.HA1] = pc[K.HA2] = act.wall_conductance_W_K
+        if math.isfinite(plant.valve.bandwidth_Hz):
+            pc[K.SPOOL_ORDER] = plant.valve.spool_order
+            pc[K.SPOOL_W] = 2.0 * math.pi * plant.valve.bandwidth_Hz
+        pc[K.T_AIR] = air.temperature_K
         pc[K.ENV_ATTACHED] = 1.0 if env.attached else 0.0
         pc[K.ENV_K], pc[K.ENV_B], pc[K.ENV_M], pc[K.ENV_Z0] = (env.stiffness_N_m, env.damping_N_s_m,
                                                                env.mass_kg, env.contact_m)
@@ -94,6 +103,8 @@ class CompiledPlant:
             self.ps[s, K.S_UNSTEADY] = float(lay.unsteady_friction)
             self.ps[s, K.S_THERMAL] = float(lay.heat_transfer)
             self.ps[s, K.S_ATTEN], self.ps[s, K.S_LEN] = float(lay.attenuation), lay.length_m
+            self.ps[s, K.S_CONVECT], self.ps[s, K.S_AREA] = float(lay.convective), lay.area_m2
+            self.ps[s, K.S_MACH_LIMIT] = lay.mach_limit
             if lay.attenuation:
                 self.delay_s[s] = lay.length_m / air.speed_of_sound
             self.pv[s, :nn] = lay.node_volumes_m3
@@ -107,7 +118,9 @@ class CompiledPlant:
             self.labels += [f"{tag}_friction_{j}_{i}" for j in range(nf) for i in range(kk)][:ny]
             self.labels += [f"{tag}_heat_{k}_{i}" for k in range(nf) for i in range(kk)][:nw]
             pos += nn + nf + ny + nw
-        self.n_states = pos
+        pc[K.OX] = pos
+        self.labels += ["side1_chamber_mass", "side2_chamber_mass", "spool_position", "spool_rate"]
+        self.n_states = pos + K.N_EXTRA
         self.grid, self.csup, self.cexh = plant.valve.arrays()
 
     # --- state helpers -------------------------------------------------------------------
@@ -119,7 +132,8 @@ class CompiledPlant:
 
     def initial_state(self, pressure_1_Pa: float | None = None, pressure_2_Pa: float | None = None,
                       position_m: float | None = None) -> np.ndarray:
-        """State at rest: uniform side pressures (default atmosphere), piston mid-stroke."""
+        """State at rest: uniform side pressures (default atmosphere), piston mid-stroke, gas at the
+        line temperature, spool centred."""
         atm = self.plant.air.atmosphere_Pa
         x = np.zeros(self.n_states)
         for s, p in enumerate((pressure_1_Pa, pressure_2_Pa)):
@@ -133,6 +147,9 @@ class CompiledPlant:
             if not 0.0 <= z <= stroke:
                 raise SensorInputError(f"initial position_m = {z!r}: must lie within the stroke [0, {stroke}] m")
             x[0] = z
+        ox = int(self.pc[K.OX])
+        x[ox:ox + 2] = np.array([x[self.pressure_slice(s)][-1] for s in (0, 1)]) * self.chamber_volumes(x) \
+            / self.plant.air.rt
         return x
 
     def chamber_volumes(self, x: np.ndarray) -> tuple[float, float]:
@@ -140,19 +157,27 @@ class CompiledPlant:
         v1, v2, _, _ = K.chamber_volumes(x[0], x[1], self.pc)
         return (v1 + self.pv[0, self.node_count(0) - 1], v2 + self.pv[1, self.node_count(1) - 1])
 
+    def chamber_temperatures(self, x: np.ndarray) -> tuple[float, float]:
+        """Gas temperature (K) of the two chamber nodes, T = P V / (m R) from the mass states (the
+        line temperature for isothermal chambers)."""
+        r_gas = self.plant.air.gas_constant_J_kgK
+        ox = int(self.pc[K.OX])
+        return tuple(float(x[self.pressure_slice(s)][-1] * v / (x[ox + s] * r_gas))
+                     for s, v in enumerate(self.chamber_volumes(x)))
+
     def gas_mass(self, x: np.ndarray) -> float:
-        """Total gas mass (kg) in both sides, including the heat-transfer correction of tube nodes."""
+        """Total gas mass (kg) in both sides: tube nodes from P V / R T (with the heat-transfer
+        correction of distributed tube nodes) plus the chamber nodes' mass states, which hold the
+        mass for every polytropic r and for the energy equation (P V / R T only when r = 1)."""
         rt = self.plant.air.rt
         kappa = (self.plant.air.gamma - 1.0) / self.plant.air.gamma
         kk = self.kn.size
-        vch = self.chamber_volumes(x)
-        total = 0.0
+        ox = int(self.pc[K.OX])
+        total = float(x[ox] + x[ox + 1])
         for s in range(2):
             nn = self.node_count(s)
-            p = x[self.pressure_slice(s)]
-            vols = self.pv[s, :nn].copy()
-            vols[-1] = vch[s]
-            total += float(np.sum(p * vols)) / rt
+            p = x[self.pressure_slice(s)][:-1]
+            total += float(np.sum(p * self.pv[s, :nn - 1])) / rt
             if self.ps[s, K.S_THERMAL] > 0.5 and nn > 1:
                 ow = int(self.off[s, K.O_W])
                 w = x[ow:ow + (nn - 1) * kk].reshape(nn - 1, kk)
@@ -166,9 +191,12 @@ class CompiledPlant:
                      self.kn, self.km, self.ka, self.grid, self.csup, self.cexh, hold_inlet)
 
     def omega_max(self) -> float:
-        """Highest acoustic angular frequency (rad/s) of the segmented lines (adiabatic bound)."""
+        """Highest acoustic angular frequency (rad/s) of the segmented lines (adiabatic bound), or
+        the fastest decay rate a R T (1/V_line + 1/V_chamber) of a resistive (preliminary) line, a
+        at its largest (laminar R_t at the supply pressure)."""
         w = 0.0
-        c2 = self.plant.air.gamma * self.plant.air.rt
+        air = self.plant.air
+        c2 = air.gamma * air.rt
         vch = self.chamber_volumes(self.initial_state())
         for s in range(2):
             nn = self.node_count(s)
@@ -176,6 +204,10 @@ class CompiledPlant:
                 continue
             vols = self.pv[s, :nn].copy()
             vols[-1] = vch[s]
+            if self.ps[s, K.S_LAW] == LAW_RESISTIVE:
+                a = K.resistive_conductance(0.0, self.plant.supply_Pa, self.pc, self.ps[s])
+                w = max(w, a * air.rt * (1.0 / vols[0] + 1.0 / vols[-1]))
+                continue
             inc = np.zeros((nn - 1, nn))
             inc[np.arange(nn - 1), np.arange(nn - 1)] = 1.0
             inc[np.arange(nn - 1), np.arange(1, nn)] = -1.0
@@ -212,8 +244,9 @@ class CompiledPlant:
         The plant's own right-hand side is linearised numerically (central differences) about
         rest at ``mean_pressure_Pa`` with the valve shut and the inlet (valve-port) pressure
         imposed; the state matrix is diagonalised once.  Requires FixedChambers."""
-        if not isinstance(self.plant.actuator, FixedChambers):
-            raise SensorInputError("linear_line_model needs FixedChambers as the actuator")
+        if not isinstance(self.plant.actuator, FixedChambers) or self.pc[K.ENERGY] > 0.5:
+            raise SensorInputError("linear_line_model needs FixedChambers with eq 15 (no energy equation) "
+                                   "as the actuator")
         line = (self.plant.line_1, self.plant.line_2)[side]
         if isinstance(line, RicherHurmuzlu):
             # its delay and attenuation act on the valve flow, outside the state equations: a
@@ -226,7 +259,7 @@ class CompiledPlant:
         x0 = self.initial_state(mean_pressure_Pa, mean_pressure_Pa)
         u_shut = self._shut_command()
         inlet = int(self.off[side, K.O_P])
-        block_end = int(self.off[1, K.O_P]) if side == 0 else self.n_states
+        block_end = int(self.off[1, K.O_P]) if side == 0 else int(self.pc[K.OX])
         idx = np.arange(inlet + 1, block_end)   # this side's states except the imposed inlet
         pa_like = np.array([("pressure" in lab or "heat" in lab) for lab in self.labels])
         steps = np.where(pa_like, 1.0, 1e-8)

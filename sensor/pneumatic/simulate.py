@@ -13,8 +13,9 @@ from collections.abc import Callable
 import numpy as np
 import xarray as xr
 
-from sensor.errors import SensorInputError
+from sensor.errors import SensorInputError, SolverError
 from sensor.pneumatic import _kernel as K
+from sensor.pneumatic.cylinder import FixedChambers
 from sensor.pneumatic.plant import CompiledPlant, Plant
 from sensor.pneumatic.sensors import DifferentiatingFilter, Sensors
 
@@ -52,29 +53,34 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     delays = np.round(cp.delay_s / h).astype(int)
     ps = cp.ps.copy()
     ps[:, K.S_DELAY] = delays
+    pc = cp.pc.copy()
+    if pc[K.SPOOL_ORDER] > 0:
+        pc[[K.SP_A00, K.SP_A01, K.SP_A10, K.SP_A11]] = cp.plant.valve.spool_step_matrices(h)
+    mach_limit = ps[:, K.S_MACH_LIMIT]
     ring = np.zeros((2, int(delays.max()) + 1))
     head = 0
-    acc = np.zeros(5)
+    acc = np.zeros(K.N_ACC)
     work = K.work_array(cp.pv, cp.kn)
     states = np.empty((nsteps + 1, cp.n_states))
     commands = np.full(nsteps + 1, np.nan)
     meas = np.empty((nsteps + 1, len(MEASUREMENT_KEYS)))
     valve_flow = np.full((nsteps + 1, 2), np.nan)
     chamber_flow = np.full((nsteps + 1, 2), np.nan)
+    mach = np.full((nsteps + 1, 2), np.nan)
     force = np.empty(nsteps + 1)
     vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
     acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
     p_valve = (int(cp.off[0, K.O_P]), int(cp.off[1, K.O_P]))
     p_ch = (p_valve[0] + cp.node_count(0) - 1, p_valve[1] + cp.node_count(1) - 1)
-    args = (cp.pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid, cp.csup, cp.cexh)
-    _, _, _, acc[4] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
+    args = (pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid, cp.csup, cp.cexh)
+    _, _, _, acc[K.A_FORCE] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
     read_pos, read_f = sensors.position.read, sensors.force.read
     read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
     read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
     for k in range(nsteps + 1):
         t = k * dt
         states[k] = x
-        force[k] = acc[4]
+        force[k] = acc[K.A_FORCE]
         z = read_pos(x[0], t)
         vz = vel_f.update(z)
         m = (z, vz, acc_f.update(vz), read_f(acc[4], t), read_v1(x[p_valve[0]], t), read_v2(x[p_valve[1]], t),
@@ -92,13 +98,20 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
         head, bad = K.advance(x, u, nsub, h, *args, ring, head, acc, MAX_VELOCITY_M_S, work)
         valve_flow[k] = acc[:2] / dt
         chamber_flow[k] = acc[2:4] / dt
+        mach[k] = acc[K.A_MACH:K.A_MACH + 2]
+        if mach[k, 0] > mach_limit[0] or mach[k, 1] > mach_limit[1]:
+            s = int(mach[k, 1] > mach_limit[1])
+            raise SolverError(f"simulation stopped at t = {t + dt:.6g} s: the side {s + 1} line reached Mach "
+                              f"{mach[k, s]:.3g}, beyond the distributed line's range (subsonic flow up to "
+                              f"Mach {mach_limit[s]:g}; its isothermal ends choke at Mach "
+                              f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
         if bad >= 0:
             raise SensorInputError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
                               f"{float(x[bad])!r} is not finite or outside its physical range")
-    return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, nsub, h, p_valve, p_ch)
+    return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch)
 
 
-def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, nsub, h, p_valve, p_ch):
+def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch):
     time = np.arange(states.shape[0]) * dt
     side = [1, 2]
     ds = xr.Dataset(
@@ -112,6 +125,12 @@ def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, ns
                                 {"units": "kg/s", "note": "mean over the control period starting at time"}),
             "chamber_mass_flow": (("time", "side"), chamber_flow,
                                   {"units": "kg/s", "note": "line into chamber, mean over the period"}),
+            "line_max_mach": (("time", "side"), mach,
+                              {"units": "1", "note": "largest Mach number of the line's flow elements "
+                                                     "over the period (0 without flow elements)"}),
+            "chamber_temperature": (("time", "side"), _temperatures(cp, states), {"units": "K"}),
+            "spool_position": ("time", states[:, int(cp.pc[K.OX]) + K.X_SPOOL],
+                               {"units": "1", "note": "the command itself for an ideal spool"}),
             "environment_force": ("time", force, {"units": "N"}),
             "command": ("time", commands, {"units": "1", "note": "valve command held over the period"}),
         },
@@ -123,3 +142,17 @@ def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, force, dt, ns
     for j, key in enumerate(MEASUREMENT_KEYS):
         ds[f"measured_{key}"] = ("time", meas[:, j])
     return ds
+
+
+def _temperatures(cp, states) -> np.ndarray:
+    """Chamber-node gas temperatures T = P V / (m R) (K) of every row of ``states``."""
+    ox = int(cp.pc[K.OX])
+    act = cp.plant.actuator
+    v1, v2 = ((act.volume_1_m3, act.volume_2_m3) if isinstance(act, FixedChambers)
+              else act.volumes(states[:, 0]))
+    r_gas = cp.plant.air.gas_constant_J_kgK
+    out = np.empty((states.shape[0], 2))
+    for s, v in enumerate((v1, v2)):
+        p = states[:, int(cp.off[s, K.O_P]) + cp.node_count(s) - 1]
+        out[:, s] = p * (v + cp.pv[s, cp.node_count(s) - 1]) / (states[:, ox + s] * r_gas)
+    return out

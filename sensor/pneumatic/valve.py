@@ -16,6 +16,12 @@ calibration table against the normalised command u in [-1, 1].  Port 2 sees the 
 command -u, so the net areas satisfy A_v1 A_v2 < 0 (Appendix A): u > 0 charges port 1 and
 vents port 2.  An underlapped spool (Festo MPYE) keeps both orifices of a port slightly
 open around u = 0 (leakage); an overlapped one (Enfield LH05) closes both.
+
+Spool dynamics: by default the spool follows the command at once.  A finite ``bandwidth_Hz``
+makes the spool position a state that lags the command, first order
+u_s' = w_b (u - u_s), or second order u_s'' = w_b^2 (u - u_s) - sqrt(2) w_b u_s' (Butterworth
+damping), both with their -3 dB point at w_b = 2 pi ``bandwidth_Hz``; the conductances are read
+at the spool position.
 """
 from __future__ import annotations
 
@@ -104,6 +110,8 @@ class Valve:
     critical_ratio: float = 0.3
     laminar_ratio: float = LAMINAR_RATIO
     air: Air = field(default=AIR, repr=False)
+    bandwidth_Hz: float = math.inf
+    spool_order: int = 1
 
     def __post_init__(self) -> None:
         u = np.asarray(self.command, float)
@@ -119,6 +127,21 @@ class Valve:
             raise SensorInputError(
                 f"valve critical_ratio = {self.critical_ratio!r}, laminar_ratio = {self.laminar_ratio!r}:"
                 " need 0 <= b < r_lam < 1")
+        if not (self.bandwidth_Hz > 0 and not math.isnan(self.bandwidth_Hz)):
+            raise SensorInputError(f"valve bandwidth_Hz = {self.bandwidth_Hz!r}: must be > 0 (inf: ideal spool)")
+        if self.spool_order not in (1, 2):
+            raise SensorInputError(f"valve spool_order = {self.spool_order!r}: must be 1 or 2")
+
+    def spool_step_matrices(self, h_s: float) -> tuple[float, float, float, float]:
+        """Exact one-step map (a00, a01, a10, a11) of the spool error (u_s - u, u_s') over h_s
+        seconds with the command held: the matrix exponential of the spool dynamics."""
+        from scipy.linalg import expm
+
+        w = 2.0 * math.pi * self.bandwidth_Hz
+        if self.spool_order == 1:
+            return math.exp(-w * h_s), 0.0, 0.0, 0.0
+        a = expm(np.array([[0.0, 1.0], [-w * w, -math.sqrt(2.0) * w]]) * h_s)
+        return float(a[0, 0]), float(a[0, 1]), float(a[1, 0]), float(a[1, 1])
 
     @property
     def k_ref(self) -> float:
