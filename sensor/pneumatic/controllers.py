@@ -12,7 +12,9 @@ for :func:`sensor.pneumatic.simulate.simulate` (u in [-1, 1], SI readings).
   and chamber flow; the outer loop asks for a valve force F_vd (eq 70), the inner loop makes
   F_V = P_v1 A1 - P_v2 A2 (eq 67) track it (eq 72).
 * :func:`smc_gains`, :func:`line_model_gains` - the gains of section 5.4.2, derived per line
-  length from the line's dynamics (:func:`line_dynamics`) instead of tuned by hand.
+  length from the line's dynamics (:func:`line_dynamics`) instead of tuned by hand.  The
+  line-model controller comes as the thesis wrote it (``line-model``: k_m = 0, PI inner loop)
+  and with the project's line-flow damping (``line-model-damped``, k_m = 2 w_L).
 
 Each controller owns a :class:`~sensor.pneumatic.observer.PressureObserver` it updates every
 sample (for SMC its pressures enter the law; for PI and impedance it runs alongside, decoupled,
@@ -56,7 +58,8 @@ from sensor.pneumatic.observer import (
 from sensor.pneumatic.sensors import DifferentiatingFilter
 from sensor.pneumatic.valve import orifice_flow
 
-CONTROLLERS = ("pi", "impedance", "smc", "line-model")
+CONTROLLERS = ("pi", "impedance", "smc", "line-model", "line-model-damped")
+LINE_MODEL_VARIANTS = {"line-model": "thesis", "line-model-damped": "damped"}
 REFERENCE_KINDS = ("sine", "step", "square")
 
 
@@ -127,10 +130,11 @@ def parse_reference(text: str, amplitude_N: float = 24.0, offset_N: float = 0.0,
     raise SensorInputError(f"reference = {text!r}: must be sine:<f>Hz, square:<f>Hz or step")
 
 
-# --- valve calibration inverse and flow functions ---------------------------------------------------
+# --- valve inverse (conductance -> command) and flow functions ---------------------------------------
 
-def calibration_inverse(model: ObserverModel) -> tuple[np.ndarray, np.ndarray]:
-    """(conductance, command) table of port 1's supply orifice for u >= 0, monotone, starting at
+def valve_inverse(model: ObserverModel) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of the valve's flow-coefficient table C(u) (eq 14): the (conductance, command) table
+    of port 1's supply orifice for u >= 0, monotone, starting at
     the last command of the closed (or leakage) band so an overlap is stepped over."""
     g, c = model.grid, model.supply_conductance
     pos = g >= 0
@@ -241,32 +245,34 @@ def smc_gains(plant) -> dict:
     return {"lam_per_s": SMC_LAMBDA_PER_S, "eta_N_s": slope * SMC_PHI_N, "phi_N": SMC_PHI_N}
 
 
-def line_model_gains(plant) -> dict:
+def line_model_gains(plant, variant: str = "thesis") -> dict:
     """Line-model controller gains for the plant's lines (section 5.4.2: inner loop first, one
-    k_p2 for all lengths; outer loop per length).
+    inner gain set for all lengths; outer loop per length).  The thesis gives no numbers, only
+    the procedure; these rules stand in for its hand tuning.
+
+    ``variant``: ``thesis`` is eqs 70 and 72 as written (k_m = 0, the inner loop a PI as eq 73
+    says); ``damped`` adds the project's line-flow damping k_m = 2 zeta w_L, zeta = 1 (the flow
+    term critically damps the line mode, see :class:`LineModel`), all else equal.
 
     * k_p2 = 2 g c / max(L, 10 m), g = 0.4: at one-sample time scales the valve port sees the
       line's wave impedance rho c / A, not the half line volume A L / 2 the inner loop (eq 72)
       assumes, so its per-sample loop gain is k_p2 L / (2 c); held at 0.4 on the longest line
-      of chapter V, one value (27.5 /s) for all lines up to 10 m.  That bound alone allows
-      more: on the 20-segment distributed plant a 500 Hz inner-loop oscillation appears at 5 m
-      from k_p2 ~ 34 /s (0.6 N line in F_vd - F_V; 0.1 N at 27.5 /s), at 10 m from ~ 65 /s,
-      not below 75 /s at 2 m.  Its onset jumps with the segment count and does not settle as
-      dx shrinks (1 Hz sine, 3 s: 10 m oscillates at k_p2 = 15 /s with 46 segments and at 27.5
-      /s with 132, not at 27.5 /s with 20, 66, 92 or 200; 5 m at 15 /s with 23, at 40 /s with
-      66, not at 90 /s with 46 or 92; 7.25 m at 15 /s with 34, not at 40 /s with 20, 66, 132),
-      so resolving the ladder up to the 500 Hz Nyquist frequency does not lift the bound and
-      k_p2 is not raised.
-    * k_m = 2 zeta w_L, zeta = 1: the flow term critically damps the line mode.
+      of chapter V, one value (27.5 /s) for all lines up to 10 m.  On the 20-segment
+      distributed plant a 500 Hz inner-loop oscillation appears at 5 m from k_p2 ~ 34 /s, at
+      10 m from ~ 65 /s; its onset jumps with the segment count, so k_p2 is not raised.
+    * k_i2 = k_p2^2 / 4: eq 73's PI error dynamics e_2'' + k_p2 e_2' + k_i2 e_2 = 0 critically
+      damped.
     * k_p1 = (0.75 w_L - lambda) / h_bar (>= 0), lambda = 10 /s: the nominal outer-loop rate
-      lambda + h_bar k_p1 (section 5.3.2) is three quarters of the line mode, so the outer loop
-      stays below the line it drives (at 2 m h_bar is 19 times larger than at 10 m: a fixed
-      k_p1 that suits 5-10 m makes the 2 m outer loop faster than its line and unstable)."""
+      lambda + h_bar k_p1 (eq 71) is three quarters of the line mode, so the outer loop stays
+      below the line it drives (h_bar at 2 m is 19 times that at 10 m)."""
+    if variant not in ("thesis", "damped"):
+        raise SensorInputError(f"line-model gain variant = {variant!r}: must be thesis or damped")
     ld = line_dynamics(plant)
     kp1 = max(0.0, (OUTER_RATE_FRACTION * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
     kp2 = 2 * INNER_SAMPLE_GAIN * ld.speed_of_sound_m_s / max(ld.length_m, INNER_DESIGN_LENGTH_M)
-    return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2,
-            "flow_rate_per_s": 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s}
+    km = 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s if variant == "damped" else 0.0
+    return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2, "ki2_per_s2": kp2 * kp2 / 4,
+            "flow_rate_per_s": km}
 
 
 # --- controllers ----------------------------------------------------------------------------------
@@ -357,7 +363,7 @@ class SlidingMode(_Loop):
         super().__init__(model, reference, observer, dt_s)
         _check_gains(lam_per_s=lam_per_s, eta_N_s=eta_N_s, phi_N=phi_N)
         self.lam, self.eta, self.phi = lam_per_s, eta_N_s, phi_N
-        self.cal_c, self.cal_u = calibration_inverse(model)
+        self.cal_c, self.cal_u = valve_inverse(model)
         self.impedance = impedance
 
     def desired(self, t, m):
@@ -401,7 +407,7 @@ class LineModel(_Loop):
                      flow_rate_per_s=flow_rate_per_s)
         self.lam, self.kp1, self.ki1, self.kp2, self.ki2 = lam_per_s, kp1, ki1_per_s, kp2_per_s, ki2_per_s2
         self.km = flow_rate_per_s
-        self.cal_c, self.cal_u = calibration_inverse(model)
+        self.cal_c, self.cal_u = valve_inverse(model)
         self.fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)
         self.w2 = 0.0
         self.state: list[float] | None = None      # [P_c1, m_c1, P_c2, m_c2]

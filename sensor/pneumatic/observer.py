@@ -151,12 +151,13 @@ class PressureObserver:
     """Chamber-pressure estimator of one of :data:`OBSERVER_KINDS`, updated once per sample.
 
     ``gain_m6_s``: k of eq 22 for kind ``force`` (ignored otherwise); ``initial_Pa``: the
-    starting estimates (the thesis starts from zero); ``gain_on_s``: time at which the
+    starting estimates (default: the atmosphere, the plant's rest state, so plant and
+    estimator start from one physical state; the thesis' plots start from zero); ``gain_on_s``: time at which the
     correction is switched on (before it the observer runs as the standard model, Figure 27).
     """
 
     def __init__(self, model: ObserverModel, kind: str = "force", gain_m6_s: float = 0.0,
-                 dt_s: float = 1e-3, initial_Pa: tuple[float, float] = (0.0, 0.0), gain_on_s: float = 0.0):
+                 dt_s: float = 1e-3, initial_Pa: tuple[float, float] | None = None, gain_on_s: float = 0.0):
         if kind not in OBSERVER_KINDS:
             raise SensorInputError(f"observer = {kind!r}: must be one of {', '.join(OBSERVER_KINDS)}")
         if not (math.isfinite(gain_m6_s) and gain_m6_s >= 0):
@@ -167,6 +168,8 @@ class PressureObserver:
         self.model, self.kind, self.dt = model, kind, float(dt_s)
         self.k = float(gain_m6_s) if kind == "force" else 0.0
         self.gain_on_s = float(gain_on_s)
+        if initial_Pa is None:
+            initial_Pa = (model.q[Q_PATM], model.q[Q_PATM])
         self._p0 = tuple(float(p) for p in initial_Pa)
         self._x: tuple[float, float] | None = None
         self.pressures = self._p0
