@@ -46,7 +46,7 @@ def register(subparsers) -> None:
                         "the load cell; the environment then is a push-only 2 kN/m spring in series with it")
     p.add_argument("--segments", type=int, default=20, metavar="N", help="segments per line (default 20)")
     p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="simulated time, s (default 20, long enough to settle)")
+                   help="simulated time, s (default 20 s or 16 periods, whichever is longer: long enough to settle)")
     p.add_argument("--study", default=None, metavar="NAME", help="observer | controllers | sensor: run a whole study")
     p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
                    help="folder for plots and tables (default ./dacm-out; created if missing)")
@@ -88,8 +88,7 @@ def _setup(args):
                   amplitude_N=amp if args.amplitude is None else args.amplitude,
                   offset_N=off if args.offset is None else args.offset, line_length_m=args.line_length,
                   segments=args.segments, valve=valve,
-                  duration_s=STUDY_DURATION_S if args.duration is None else args.duration, **kw)
-    setup.ref  # parse now: a bad reference is a one-line error
+                  duration_s=settling_duration_s(args.reference) if args.duration is None else args.duration, **kw)
     return setup, notes
 
 

@@ -66,7 +66,9 @@ from sensor.pneumatic.valve import VALVES
 
 MSE_WINDOW_S = 2.0       # thesis 5.4.2: "mean of error squares obtained in a 2-second time interval"
 OBSERVER_RATE_HZ = 10.0  # correction pole at mid-stroke (k of eq 22 from it)
-STUDY_DURATION_S = 20.0  # every study run; long enough to settle by the rule above
+STUDY_DURATION_S = 20.0  # shortest study run; long enough to settle by the rule above ...
+SETTLE_PERIODS = 16      # ... and at least this many periods (the open-loop standard model's
+                         # error takes ~16 s to reach its steady size at 0.5 Hz)
 STEP_AT_S = 3.0          # a step reference jumps here, after the start has settled
 SETTLE_CYCLES = 3
 SETTLE_CHANGE = 0.05
@@ -117,6 +119,13 @@ class Setup:
     @property
     def ref(self) -> Reference:
         return parse_reference(self.reference, self.amplitude_N, self.offset_N, self.step_s)
+
+
+def settling_duration_s(reference: str) -> float:
+    """Default run length (s) for a reference: STUDY_DURATION_S, or SETTLE_PERIODS periods of a
+    slower periodic reference (0.5 Hz: 32 s)."""
+    ref = parse_reference(reference)
+    return STUDY_DURATION_S if ref.kind == "step" else max(STUDY_DURATION_S, SETTLE_PERIODS / ref.frequency_Hz)
 
 
 def build_plant(setup: Setup) -> Plant:
@@ -358,7 +367,8 @@ OBSERVER_EXPERIMENTS = (("pi", "sine:1Hz", "Figure 16"), ("pi", "sine:2Hz", "Fig
                         ("smc", "sine:1Hz", "Figure 26"), ("smc", "sine:1.5Hz", "Figure 26"))
 
 
-def _observer_setup(ctrl: str, ref: str, kind: str, duration_s: float, segments: int, **kw) -> Setup:
+def _observer_setup(ctrl: str, ref: str, kind: str, duration_s: float | None, segments: int, **kw) -> Setup:
+    duration_s = settling_duration_s(ref) if duration_s is None else duration_s
     if ctrl != "smc":
         return Setup(controller=ctrl, observer=kind, reference=ref, duration_s=duration_s, segments=segments, **kw)
     s = Setup(controller="smc", observer=kind, reference=ref, duration_s=duration_s, segments=segments,
@@ -366,20 +376,21 @@ def _observer_setup(ctrl: str, ref: str, kind: str, duration_s: float, segments:
     return replace(s, gains=(("impedance", _impedance_for(s)),))
 
 
-def observer_study(duration_s: float = STUDY_DURATION_S, segments: int = 20, progress=None) -> dict:
+def observer_study(duration_s: float | None = None, segments: int = 20, progress=None) -> dict:
     """Chapter IV, 7.25 m lines: eq 44 pressure-estimation MSE (kPa^2) of the observer, the
     open-loop standard model and the valve-port pressures, and the force MSE of each run, at 1
     and 2 Hz PI force tracking and square-wave impedance control (Festo valve, Figures 16-18)
     and SMC impedance control with z_d a 0.5, 1 or 1.5 Hz sine (Enfield valve, Figure 26); and
     the switch-on of Figure 27 (0.5 Hz, observer on after ``duration_s``, run twice as long).
+    ``duration_s``: every run's length (default :func:`settling_duration_s` of its reference).
 
     Returns ``experiments`` (one dict per experiment with the keys ``observer``, ``open_loop``,
     ``valve_ports`` in kPa^2, ``force_mse_N2`` per estimator, ``settled``), ``switch_on``,
     ``runs`` (datasets by (controller, reference, estimator key))."""
     plan = [((c, r, key), _observer_setup(c, r, kind, duration_s, segments))
             for c, r, _ in OBSERVER_EXPERIMENTS for kind, key in ESTIMATORS.items()]
-    on_s = duration_s
-    plan.append(("switch_on", _observer_setup("smc", "sine:0.5Hz", "force", 2 * duration_s, segments,
+    on_s = settling_duration_s("sine:0.5Hz") if duration_s is None else duration_s
+    plan.append(("switch_on", _observer_setup("smc", "sine:0.5Hz", "force", 2 * on_s, segments,
                                               observer_on_s=on_s)))
     done = _run_plan(plan, progress)
     experiments = []
@@ -425,17 +436,19 @@ TABLE4 = {2.0: {"sine:0.5Hz": (6.38, 4.33), "sine:1Hz": (9.28, 5.68), "sine:2Hz"
           10.0: {"sine:0.5Hz": (2.44, 6.33), "sine:1Hz": (7.08, 8.85), "sine:2Hz": (22.85, 10.37)}}
 
 
-def controller_study(duration_s: float = STUDY_DURATION_S, amplitude_N: float = 24.0, segments: int = 20,
+def controller_study(duration_s: float | None = None, amplitude_N: float = 24.0, segments: int = 20,
                      lengths=CH5_LENGTHS_M, references=CH5_REFERENCES, keep_runs=(), progress=None) -> dict:
     """Chapter V on 2, 5, 7.25 and 10 m lines with step, 0.5, 1 and 2 Hz references, Enfield valve,
     standard-model pressures for SMC: SMC, the thesis' line-model controller and ours with k_m;
     gains per length from the line (:func:`default_gains`, section 5.4.2), the same for every
-    reference.  One row per (length, reference) with ``smc``, ``line_model_thesis`` and
+    reference; ``duration_s`` every run's length (default :func:`settling_duration_s`).  One row
+    per (length, reference) with ``smc``, ``line_model_thesis`` and
     ``line_model_damped`` (each ``mse1_N2``, ``mse2_N2``, pressure MSEs, ``settled``, gains),
     ``thesis_table4`` and ``settled``; ``runs`` keeps the datasets named in ``keep_runs``
     ((length, reference, row key))."""
     plan = [((length, ref, key), Setup(controller=ctrl, observer="standard", reference=ref, amplitude_N=amplitude_N,
-                                       line_length_m=length, duration_s=duration_s, valve="enfield-lh05",
+                                       line_length_m=length, valve="enfield-lh05",
+                                       duration_s=settling_duration_s(ref) if duration_s is None else duration_s,
                                        segments=segments))
             for length in lengths for ref in references for key, ctrl in CH5_CONTROLLERS.items()]
     done = _run_plan(plan, progress)
@@ -553,7 +566,7 @@ def controller_verdicts(res: dict, key: str = "line_model_thesis") -> list[dict]
     name = CH5_HEADINGS[key]
     ratio = {(L, r): get[(L, r)][key]["mse1_N2"] / get[(L, r)]["smc"]["mse1_N2"] for L in long_ for r in sines}
     red = {c: 100 * (1 - x) for c, x in ratio.items()}
-    settled = lambda cells: all(get[c]["settled"] for c in cells)    # noqa: E731
+    settled = lambda cells: all(get[c][key]["settled"] and get[c]["smc"]["settled"] for c in cells)   # noqa: E731
     out = []
     for L in long_:
         cells = [(L, r) for r in sines]

@@ -5,7 +5,7 @@ control law) averaged over 20 000 synthetic samples, median of 5 repeats, for ev
 (PI, impedance, SMC with the observer's pressures in its law, the thesis' and our line-model
 controller with the line-model update and the cascaded law); the largest is reported (target
 <= 5 us, issue 17).  chapter5_study_s: the whole 4 lengths x 4 references x 3 controllers grid
-of :func:`sensor.pneumatic.studies.controller_study` (20 s each, 20-segment distributed lines).
+of :func:`sensor.pneumatic.studies.controller_study` (20 s each, 32 s at 0.5 Hz, 20-segment distributed lines).
 One core.  Prints one JSON object.
 """
 import json
@@ -48,7 +48,7 @@ def main() -> None:
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     costs = {c: statistics.median(step_cost(c) for _ in range(5)) for c in CONTROLLERS}
-    controller_study(duration_s=1.0, lengths=(2.0,), references=("step",))   # warm-up
+    controller_study(duration_s=2.0, lengths=(2.0,), references=("sine:2Hz",))   # warm-up
     start = time.perf_counter()
     res = controller_study()
     study = time.perf_counter() - start

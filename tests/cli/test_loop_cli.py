@@ -89,3 +89,16 @@ def test_loop_with_a_dacm_sensor_picks_a_reference_within_its_range(capsys):
     rng = DacmForceSensor("sample-a-as-cut").range_N
     assert out["amplitude_N"] == pytest.approx(0.35 * rng) and out["offset_N"] == pytest.approx(0.5 * rng)
     assert "note: reference within the sensor's" in cap.err and "warning" not in cap.err
+
+
+def test_progress_only_on_a_terminal_and_never_with_quiet(monkeypatch, capsys):
+    from sensor.pneumatic.studies import console_progress
+    with console_progress("study") as progress:          # pytest's stderr is not a terminal
+        assert progress is None
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True)
+    with console_progress("study", quiet=True) as progress:
+        assert progress is None
+    with console_progress("study") as progress:
+        progress(1, 2, "smc sine:1Hz 5 m")
+        progress(2, 2, "smc sine:2Hz 5 m")
+    assert capsys.readouterr().out == ""                 # the bar goes to stderr only
