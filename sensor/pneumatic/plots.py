@@ -126,7 +126,7 @@ def controller_mse_figure(res) -> Figure:
     a = ax[-1]
     ref = refs[-1]
     a.plot(lengths, [get[(L, ref)]["line_model_thesis"]["pressure_mse_kPa2"] for L in lengths], "o-", color="tab:orange",
-           label="standard model")
+           label="standard model (thesis controller's run)")
     a.plot(lengths, [get[(L, ref)]["line_model_thesis"]["line_model_pressure_mse_kPa2"] for L in lengths], "s-",
            color=CONTROLLER_COLOURS["line_model_thesis"], label="line model (thesis controller's run)")
     a.plot(lengths, [get[(L, ref)]["line_model_damped"]["line_model_pressure_mse_kPa2"] for L in lengths], "s-",

@@ -262,8 +262,9 @@ def _synthetic_run(error_N, rate_Hz=1000.0, duration_s=10.0):
 def test_settling_rule_against_a_known_decay(tau_s, settled):
     # Force error e = 0.3 N + exp(-t / tau) sin(6 pi t): the per-cycle MSE of cycle k is about
     # 0.09 + 1/2 exp(-2 t / tau) over the cycle -- computed here by hand, independently.
-    # tau = 0.5 s: the decay has died out by t = 7 s (the two 3-cycle averages differ by < 1e-9);
-    # tau = 20 s: cycles 4-6 average ~0.378 N^2, cycles 7-9 ~0.304 N^2: 20 % apart, beyond 5 %.
+    # tau = 0.5 s: the decay has died out by t = 2 s (the two 5-cycle averages differ by < 1e-9);
+    # tau = 20 s: cycles 0-4 average ~0.48 N^2, cycles 5-9 ~0.33 N^2: 38 % apart, beyond 5 % and
+    # beyond twice the standard error from the scatter within the blocks (~0.06 N^2).
     from sensor.pneumatic.controllers import Reference
     from sensor.pneumatic.studies import metrics, per_cycle
     ds = _synthetic_run(lambda t: 0.3 + np.exp(-t / tau_s) * np.sin(6 * np.pi * t))
@@ -277,6 +278,22 @@ def test_settling_rule_against_a_known_decay(tau_s, settled):
     assert m["settled"] is settled
     assert m["window_s"] == [8.0, 10.0]
     assert m["force_mse_N2"] == pytest.approx(np.mean(by_hand[8:]), rel=1e-3)
+
+
+def test_settling_rule_tells_scatter_from_drift():
+    # A stationary error whose size scatters 10 % from cycle to cycle (seed 6: the two 5-cycle
+    # MSE averages differ by 9.6 %, within twice their standard error) settles; the same scatter
+    # on a drift of 4 % per cycle in size (the second block's MSE 0.69 N^2 above the first, twice
+    # the standard error 0.37 N^2) does not.
+    from sensor.pneumatic.controllers import Reference
+    from sensor.pneumatic.studies import metrics
+    ref = Reference("sine", 1.0, 10.0)
+    size = 1.0 + 0.1 * np.random.default_rng(6).standard_normal(10)
+    mse = size**2
+    assert abs(mse[5:].mean() / mse[:5].mean() - 1) > 0.05           # beyond the 5 % branch
+    assert metrics(_synthetic_run(lambda t: size[np.minimum(t.astype(int), 9)]), ref)["settled"] is True
+    drift = size * (1.0 + 0.04 * np.arange(10))
+    assert metrics(_synthetic_run(lambda t: drift[np.minimum(t.astype(int), 9)]), ref)["settled"] is False
 
 
 def test_plant_and_estimators_start_from_the_atmosphere():
