@@ -96,6 +96,15 @@ class Reference:
                     self.amplitude_N * self._w * math.sin(wt + math.pi / 2))
         return self.value(t), 0.0
 
+    def derivatives(self, t: float) -> tuple[float, float, float, float]:
+        """F_d and its first three time derivatives at t (N, N/s, N/s^2, N/s^3): :meth:`value` and
+        :meth:`rate` of orders 1-3 in one call."""
+        if self.kind == "sine":
+            w, wt, a = self._w, self._w * t, self.amplitude_N
+            return (self.offset_N + a * math.sin(wt), a * w * math.sin(wt + math.pi / 2),
+                    a * w**2 * math.sin(wt + 2 * math.pi / 2), a * w**3 * math.sin(wt + 3 * math.pi / 2))
+        return self.value(t), 0.0, 0.0, 0.0
+
     def value(self, t: float) -> float:
         if self.kind == "sine":
             return self.offset_N + self.amplitude_N * math.sin(2 * math.pi * self.frequency_Hz * t)
@@ -364,11 +373,11 @@ class Impedance(PIForce):
         self.rest = model.q[Q_STROKE] / 2 if rest_m is None else rest_m
 
     def desired(self, t, m):
-        ref = self.reference
-        zd = self.rest + ref.value(t) / self.kd
-        fd = (self.kd * (zd - m["position_m"]) + self.bd * (ref.rate(t) / self.kd - m["velocity_m_s"])
-              + self.md * (ref.rate(t, 2) / self.kd - m["acceleration_m_s2"]))
-        return fd, ref.rate(t) + (self.bd * ref.rate(t, 2) + self.md * ref.rate(t, 3)) / self.kd
+        f, f1, f2, f3 = self.reference.derivatives(t)
+        zd = self.rest + f / self.kd
+        fd = (self.kd * (zd - m["position_m"]) + self.bd * (f1 / self.kd - m["velocity_m_s"])
+              + self.md * (f2 / self.kd - m["acceleration_m_s2"]))
+        return fd, f1 + (self.bd * f2 + self.md * f3) / self.kd
 
 
 class SlidingMode(_Loop):

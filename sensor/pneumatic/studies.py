@@ -276,10 +276,10 @@ def settling(ds: xr.Dataset, reference: Reference, errors: dict | None = None) -
     n = SETTLE_CYCLES
     last = {k: v[-2 * n:] for k, v in cyc.items() if k not in ("cycle_start_s", "valve_pressure_mse_kPa2")}
     ok = len(cyc["cycle_start_s"]) >= 2 * n
-    for key, vals in last.items():
+    for key, vals in last.items() if ok else ():
         before, after = np.asarray(vals[:n]), np.asarray(vals[n:])
         change = abs(after.mean() - before.mean())
-        scatter = 2.0 * math.sqrt((before.var(ddof=1) + after.var(ddof=1)) / n) if ok else 0.0
+        scatter = 2.0 * math.sqrt((before.var(ddof=1) + after.var(ddof=1)) / n)
         floor = SETTLE_FLOOR["kPa2" if key.endswith("kPa2") else "N2"]
         ok = ok and change <= max(SETTLE_CHANGE * max(before.mean(), after.mean()), scatter, floor)
     return {"settled": bool(ok), "last_cycles": last}
