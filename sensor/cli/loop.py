@@ -46,7 +46,7 @@ def register(subparsers) -> None:
                         "the load cell; the environment then is a push-only 2 kN/m spring in series with it")
     p.add_argument("--segments", type=int, default=20, metavar="N", help="segments per line (default 20)")
     p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="simulated time, s (default 20 s or 16 periods, whichever is longer: long enough to settle)")
+                   help="simulated time, s (default 30 s or 25 periods, whichever is longer: long enough to settle)")
     p.add_argument("--study", default=None, metavar="NAME", help="observer | controllers | sensor: run a whole study")
     p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
                    help="folder for plots and tables (default ./dacm-out; created if missing)")
@@ -60,13 +60,7 @@ def _setup(args):
     from sensor.pneumatic.controllers import CONTROLLERS
     from sensor.pneumatic.cylinder import spring_contact
     from sensor.pneumatic.observer import OBSERVER_KINDS
-    from sensor.pneumatic.studies import (
-        STUDY_DURATION_S,
-        DacmForceSensor,
-        Setup,
-        sensor_reference,
-        series_spring,
-    )
+    from sensor.pneumatic.studies import DacmForceSensor, Setup, sensor_reference, series_spring, settling_duration_s
 
     if args.controller not in CONTROLLERS:
         raise SensorInputError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")

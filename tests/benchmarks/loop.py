@@ -5,7 +5,7 @@ control law) averaged over 20 000 synthetic samples, median of 5 repeats, for ev
 (PI, impedance, SMC with the observer's pressures in its law, the thesis' and our line-model
 controller with the line-model update and the cascaded law); the largest is reported (target
 <= 5 us, issue 17).  chapter5_study_s: the whole 4 lengths x 4 references x 3 controllers grid
-of :func:`sensor.pneumatic.studies.controller_study` (20 s each, 32 s at 0.5 Hz, 20-segment distributed lines).
+of :func:`sensor.pneumatic.studies.controller_study` (30 s each, 50 s at 0.5 Hz, 20-segment distributed lines).
 One core.  Prints one JSON object.
 """
 import json

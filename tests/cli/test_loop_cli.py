@@ -102,3 +102,10 @@ def test_progress_only_on_a_terminal_and_never_with_quiet(monkeypatch, capsys):
         progress(1, 2, "smc sine:1Hz 5 m")
         progress(2, 2, "smc sine:2Hz 5 m")
     assert capsys.readouterr().out == ""                 # the bar goes to stderr only
+
+
+def test_default_duration_settles(capsys):
+    # no --duration: 30 s (or 25 periods), long enough for the settling rule on the default loop
+    assert main(["loop", "--line-length", "1", "--segments", "4", "--no-plots", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["duration_s"] == 30.0 and out["settled"] is True and out["window_s"] == [28.0, 30.0]
