@@ -93,14 +93,14 @@ def observer_smc_figure(res) -> Figure:
                   color=ESTIMATOR_COLOURS[k], label=ESTIMATOR_HEADINGS[k])
         a.set_xticks([i + width * (len(keys) - 1) / 2 for i in range(len(smc))], labels)
         a.set(yscale="log", ylabel=f"MSE ({unit})", xlabel="z_d")
-        a.legend(fontsize=7)
+    fig.legend(*ax[0].get_legend_handles_labels(), loc="outside upper left", ncols=3, fontsize=8)
     ax[0].set_title("Figure 26: force MSE, SMC impedance")
     ax[1].set_title("Figure 26: pressure MSE (eq 44)")
     sw = res["switch_on"]
     for a, key, unit in ((ax[2], "force_mse_N2", "N^2"), (ax[3], "pressure_mse_kPa2", "kPa^2")):
         a.plot(sw["cycle_start_s"], sw[key], "o-", ms=3, color="tab:blue")
         a.axvline(sw["on_s"], color="k", ls="--", lw=1, label=f"observer on ({sw['on_s']:g} s)")
-        a.set(yscale="log", xlabel="cycle start (s)", ylabel=f"per-cycle MSE ({unit})",
+        a.set(yscale="linear" if unit == "N^2" else "log", xlabel="cycle start (s)", ylabel=f"per-cycle MSE ({unit})",
               title=f"Figure 27: {'force' if unit == 'N^2' else 'pressure'} MSE per cycle")
         a.legend(fontsize=7)
     return fig
