@@ -432,7 +432,7 @@ class LineModel(_Loop):
         _check_gains(lam_per_s=lam_per_s, kp1=kp1, ki1_per_s=ki1_per_s, kp2_per_s=kp2_per_s, ki2_per_s2=ki2_per_s2,
                      flow_rate_per_s=flow_rate_per_s)
         self.cal_c, self.cal_u = valve_inverse(model)
-        fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)     # its coefficients, run in the kernel
+        fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)     # its recursion runs in the kernel
         q = model.q
         half = [vl / 2 for vl in model.line_volume_m3]
         inertance = [math.pi * d * d / 4 / ln for d, ln in zip(model.line_bore_m, model.line_length_m)]
@@ -442,7 +442,7 @@ class LineModel(_Loop):
         par[LM_DEAD1], par[LM_DEAD2] = q[Q_V01] - model.line_volume_m3[0], q[Q_V02] - model.line_volume_m3[1]
         par[LM_HALF1], par[LM_HALF2], par[LM_INERT1], par[LM_INERT2] = half[0], half[1], inertance[0], inertance[1]
         par[LM_BORE1], par[LM_BORE2], par[LM_MU] = model.line_bore_m[0], model.line_bore_m[1], model.viscosity_Pa_s
-        par[LM_FA], par[LM_FB] = fvd_rate._a, fvd_rate._b
+        par[LM_FA], par[LM_FB] = fvd_rate.coefficients
         self.par = par
         self.state = np.zeros(LM_NSTATE)      # see line_model_law
 
