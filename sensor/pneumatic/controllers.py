@@ -12,7 +12,9 @@ for :func:`sensor.pneumatic.simulate.simulate` (u in [-1, 1], SI readings).
   and chamber flow; the outer loop asks for a valve force F_vd (eq 70), the inner loop makes
   F_V = P_v1 A1 - P_v2 A2 (eq 67) track it (eq 72).
 * :func:`smc_gains`, :func:`line_model_gains` - the gains of section 5.4.2, derived per line
-  length from the line's dynamics (:func:`line_dynamics`) instead of tuned by hand.
+  length from the line's dynamics (:func:`line_dynamics`) instead of tuned by hand.  The
+  line-model controller comes as the thesis wrote it (``line-model``: k_m = 0, PI inner loop)
+  and with the project's line-flow damping (``line-model-damped``, k_m = 2 w_L).
 
 Each controller owns a :class:`~sensor.pneumatic.observer.PressureObserver` it updates every
 sample (for SMC its pressures enter the law; for PI and impedance it runs alongside, decoupled,
@@ -56,7 +58,8 @@ from sensor.pneumatic.observer import (
 from sensor.pneumatic.sensors import DifferentiatingFilter
 from sensor.pneumatic.valve import orifice_flow
 
-CONTROLLERS = ("pi", "impedance", "smc", "line-model")
+CONTROLLERS = ("pi", "impedance", "smc", "line-model", "line-model-damped")
+LINE_MODEL_VARIANTS = {"line-model": "thesis", "line-model-damped": "damped"}
 REFERENCE_KINDS = ("sine", "step", "square")
 
 
@@ -83,6 +86,24 @@ class Reference:
         for name in ("amplitude_N", "offset_N", "step_s"):
             if not math.isfinite(getattr(self, name)):
                 raise SensorInputError(f"reference {name} = {getattr(self, name)!r}: must be finite")
+        object.__setattr__(self, "_w", 2 * math.pi * self.frequency_Hz)     # rad/s, for value_and_rate
+
+    def value_and_rate(self, t: float) -> tuple[float, float]:
+        """(F_d, dF_d/dt) in N and N/s at t: :meth:`value` and :meth:`rate` in one call (the loop's)."""
+        if self.kind == "sine":
+            wt = self._w * t
+            return (self.offset_N + self.amplitude_N * math.sin(wt),
+                    self.amplitude_N * self._w * math.sin(wt + math.pi / 2))
+        return self.value(t), 0.0
+
+    def derivatives(self, t: float) -> tuple[float, float, float, float]:
+        """F_d and its first three time derivatives at t (N, N/s, N/s^2, N/s^3): :meth:`value` and
+        :meth:`rate` of orders 1-3 in one call."""
+        if self.kind == "sine":
+            w, wt, a = self._w, self._w * t, self.amplitude_N
+            return (self.offset_N + a * math.sin(wt), a * w * math.sin(wt + math.pi / 2),
+                    a * w**2 * math.sin(wt + 2 * math.pi / 2), a * w**3 * math.sin(wt + 3 * math.pi / 2))
+        return self.value(t), 0.0, 0.0, 0.0
 
     def value(self, t: float) -> float:
         if self.kind == "sine":
@@ -127,10 +148,11 @@ def parse_reference(text: str, amplitude_N: float = 24.0, offset_N: float = 0.0,
     raise SensorInputError(f"reference = {text!r}: must be sine:<f>Hz, square:<f>Hz or step")
 
 
-# --- valve calibration inverse and flow functions ---------------------------------------------------
+# --- valve inverse (conductance -> command) and flow functions ---------------------------------------
 
-def calibration_inverse(model: ObserverModel) -> tuple[np.ndarray, np.ndarray]:
-    """(conductance, command) table of port 1's supply orifice for u >= 0, monotone, starting at
+def valve_inverse(model: ObserverModel) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of the valve's flow-coefficient table C(u) (eq 14): the (conductance, command) table
+    of port 1's supply orifice for u >= 0, monotone, starting at
     the last command of the closed (or leakage) band so an overlap is stepped over."""
     g, c = model.grid, model.supply_conductance
     pos = g >= 0
@@ -173,6 +195,18 @@ def smc_conductance(force_rate_N_s, p1, p2, z, v, q):
     else:
         den = psi(p1, q[Q_PATM], q) * a1 / v1 + psi(q[Q_PSUP], p2, q) * a2 / v2
     return need / (q[Q_RT] * max(den, 1e-300))
+
+
+@njit(cache=True)
+def smc_law(fd, fd_rate, p1, p2, force, z, v, acc, integral, lam, eta, phi, dt, q, cal_c, cal_u):
+    """One sample of :class:`SlidingMode`: s = e + lambda int e, the conductance that sets
+    F_e' = F_d' + lambda e + eta sat(s / phi) (+ B z'' of eq 47) and its command.  The sliding
+    variable's integral has no anti-windup.  Returns (u, s, new integral)."""
+    e = fd - force
+    s = e + lam * integral
+    rate = fd_rate + lam * e + eta * sat(s, phi) + q[Q_VISC] * acc
+    u = command_for(smc_conductance(rate, p1, p2, z, v, q), cal_c, cal_u)
+    return u, s, integral + e * dt
 
 
 @njit(cache=True)
@@ -241,32 +275,34 @@ def smc_gains(plant) -> dict:
     return {"lam_per_s": SMC_LAMBDA_PER_S, "eta_N_s": slope * SMC_PHI_N, "phi_N": SMC_PHI_N}
 
 
-def line_model_gains(plant) -> dict:
+def line_model_gains(plant, variant: str = "thesis") -> dict:
     """Line-model controller gains for the plant's lines (section 5.4.2: inner loop first, one
-    k_p2 for all lengths; outer loop per length).
+    inner gain set for all lengths; outer loop per length).  The thesis gives no numbers, only
+    the procedure; these rules stand in for its hand tuning.
+
+    ``variant``: ``thesis`` is eqs 70 and 72 as written (k_m = 0, the inner loop a PI as eq 73
+    says); ``damped`` adds the project's line-flow damping k_m = 2 zeta w_L, zeta = 1 (the flow
+    term critically damps the line mode, see :class:`LineModel`), all else equal.
 
     * k_p2 = 2 g c / max(L, 10 m), g = 0.4: at one-sample time scales the valve port sees the
       line's wave impedance rho c / A, not the half line volume A L / 2 the inner loop (eq 72)
       assumes, so its per-sample loop gain is k_p2 L / (2 c); held at 0.4 on the longest line
-      of chapter V, one value (27.5 /s) for all lines up to 10 m.  That bound alone allows
-      more: on the 20-segment distributed plant a 500 Hz inner-loop oscillation appears at 5 m
-      from k_p2 ~ 34 /s (0.6 N line in F_vd - F_V; 0.1 N at 27.5 /s), at 10 m from ~ 65 /s,
-      not below 75 /s at 2 m.  Its onset jumps with the segment count and does not settle as
-      dx shrinks (1 Hz sine, 3 s: 10 m oscillates at k_p2 = 15 /s with 46 segments and at 27.5
-      /s with 132, not at 27.5 /s with 20, 66, 92 or 200; 5 m at 15 /s with 23, at 40 /s with
-      66, not at 90 /s with 46 or 92; 7.25 m at 15 /s with 34, not at 40 /s with 20, 66, 132),
-      so resolving the ladder up to the 500 Hz Nyquist frequency does not lift the bound and
-      k_p2 is not raised.
-    * k_m = 2 zeta w_L, zeta = 1: the flow term critically damps the line mode.
+      of chapter V, one value (27.5 /s) for all lines up to 10 m.  On the 20-segment
+      distributed plant a 500 Hz inner-loop oscillation appears at 5 m from k_p2 ~ 34 /s, at
+      10 m from ~ 65 /s; its onset jumps with the segment count, so k_p2 is not raised.
+    * k_i2 = k_p2^2 / 4: eq 73's PI error dynamics e_2'' + k_p2 e_2' + k_i2 e_2 = 0 critically
+      damped.
     * k_p1 = (0.75 w_L - lambda) / h_bar (>= 0), lambda = 10 /s: the nominal outer-loop rate
-      lambda + h_bar k_p1 (section 5.3.2) is three quarters of the line mode, so the outer loop
-      stays below the line it drives (at 2 m h_bar is 19 times larger than at 10 m: a fixed
-      k_p1 that suits 5-10 m makes the 2 m outer loop faster than its line and unstable)."""
+      lambda + h_bar k_p1 (eq 71) is three quarters of the line mode, so the outer loop stays
+      below the line it drives (h_bar at 2 m is 19 times that at 10 m)."""
+    if variant not in ("thesis", "damped"):
+        raise SensorInputError(f"line-model gain variant = {variant!r}: must be thesis or damped")
     ld = line_dynamics(plant)
     kp1 = max(0.0, (OUTER_RATE_FRACTION * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
     kp2 = 2 * INNER_SAMPLE_GAIN * ld.speed_of_sound_m_s / max(ld.length_m, INNER_DESIGN_LENGTH_M)
-    return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2,
-            "flow_rate_per_s": 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s}
+    km = 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s if variant == "damped" else 0.0
+    return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2, "ki2_per_s2": kp2 * kp2 / 4,
+            "flow_rate_per_s": km}
 
 
 # --- controllers ----------------------------------------------------------------------------------
@@ -290,7 +326,7 @@ class _Loop:
 
     def desired(self, t: float, m: dict) -> tuple[float, float]:
         """(F_d, dF_d/dt) in N and N/s."""
-        return self.reference.value(t), self.reference.rate(t)
+        return self.reference.value_and_rate(t)
 
     def __call__(self, t: float, m: dict) -> float:
         p1, p2 = self.observer.update(t, m, self.u)
@@ -337,11 +373,11 @@ class Impedance(PIForce):
         self.rest = model.q[Q_STROKE] / 2 if rest_m is None else rest_m
 
     def desired(self, t, m):
-        ref = self.reference
-        zd = self.rest + ref.value(t) / self.kd
-        fd = (self.kd * (zd - m["position_m"]) + self.bd * (ref.rate(t) / self.kd - m["velocity_m_s"])
-              + self.md * (ref.rate(t, 2) / self.kd - m["acceleration_m_s2"]))
-        return fd, ref.rate(t) + (self.bd * ref.rate(t, 2) + self.md * ref.rate(t, 3)) / self.kd
+        f, f1, f2, f3 = self.reference.derivatives(t)
+        zd = self.rest + f / self.kd
+        fd = (self.kd * (zd - m["position_m"]) + self.bd * (f1 / self.kd - m["velocity_m_s"])
+              + self.md * (f2 / self.kd - m["acceleration_m_s2"]))
+        return fd, f1 + (self.bd * f2 + self.md * f3) / self.kd
 
 
 class SlidingMode(_Loop):
@@ -357,20 +393,16 @@ class SlidingMode(_Loop):
         super().__init__(model, reference, observer, dt_s)
         _check_gains(lam_per_s=lam_per_s, eta_N_s=eta_N_s, phi_N=phi_N)
         self.lam, self.eta, self.phi = lam_per_s, eta_N_s, phi_N
-        self.cal_c, self.cal_u = calibration_inverse(model)
+        self.cal_c, self.cal_u = valve_inverse(model)
         self.impedance = impedance
 
     def desired(self, t, m):
         return self.impedance.desired(t, m) if self.impedance else super().desired(t, m)
 
     def law(self, t, m, fd, fd_rate, p1, p2):
-        q = self.model.q
-        e = fd - m["force_N"]
-        s = e + self.lam * self.integral
-        rate = fd_rate + self.lam * e + self.eta * sat(s, self.phi) + q[Q_VISC] * m["acceleration_m_s2"]
-        c = smc_conductance(rate, p1, p2, m["position_m"], m["velocity_m_s"], q)
-        u = command_for(c, self.cal_c, self.cal_u)
-        self.integral += e * self.dt     # s is the sliding variable: no anti-windup on it
+        u, s, self.integral = smc_law(fd, fd_rate, p1, p2, m["force_N"], m["position_m"], m["velocity_m_s"],
+                                      m["acceleration_m_s2"], self.integral, self.lam, self.eta, self.phi, self.dt,
+                                      self.model.q, self.cal_c, self.cal_u)
         return u, (s,)
 
     channels = _Loop.channels + ("sliding_variable_N",)
@@ -399,80 +431,112 @@ class LineModel(_Loop):
         super().__init__(model, reference, observer, dt_s)
         _check_gains(lam_per_s=lam_per_s, kp1=kp1, ki1_per_s=ki1_per_s, kp2_per_s=kp2_per_s, ki2_per_s2=ki2_per_s2,
                      flow_rate_per_s=flow_rate_per_s)
-        self.lam, self.kp1, self.ki1, self.kp2, self.ki2 = lam_per_s, kp1, ki1_per_s, kp2_per_s, ki2_per_s2
-        self.km = flow_rate_per_s
-        self.cal_c, self.cal_u = calibration_inverse(model)
-        self.fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)
-        self.w2 = 0.0
-        self.state: list[float] | None = None      # [P_c1, m_c1, P_c2, m_c2]
-        self.z_prev = None
+        self.cal_c, self.cal_u = valve_inverse(model)
+        fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)     # its recursion runs in the kernel
         q = model.q
-        self.half = [vl / 2 for vl in model.line_volume_m3]
-        self.area = [math.pi * d * d / 4 for d in model.line_bore_m]
-        self.inertance = [a / ln for a, ln in zip(self.area, model.line_length_m)]
-        self.dead = [q[Q_V01] - model.line_volume_m3[0], q[Q_V02] - model.line_volume_m3[1]]
-
-    def _node_volumes(self, z):
-        q = self.model.q
-        return (self.dead[0] + q[Q_A1] * z + self.half[0], self.dead[1] + q[Q_A2] * (q[Q_STROKE] - z) + self.half[1])
+        half = [vl / 2 for vl in model.line_volume_m3]
+        inertance = [math.pi * d * d / 4 / ln for d, ln in zip(model.line_bore_m, model.line_length_m)]
+        par = np.zeros(LM_NPAR)
+        par[LM_DT], par[LM_LAM], par[LM_KP1], par[LM_KI1] = dt_s, lam_per_s, kp1, ki1_per_s
+        par[LM_KP2], par[LM_KI2], par[LM_KM] = kp2_per_s, ki2_per_s2, flow_rate_per_s
+        par[LM_DEAD1], par[LM_DEAD2] = q[Q_V01] - model.line_volume_m3[0], q[Q_V02] - model.line_volume_m3[1]
+        par[LM_HALF1], par[LM_HALF2], par[LM_INERT1], par[LM_INERT2] = half[0], half[1], inertance[0], inertance[1]
+        par[LM_BORE1], par[LM_BORE2], par[LM_MU] = model.line_bore_m[0], model.line_bore_m[1], model.viscosity_Pa_s
+        par[LM_FA], par[LM_FB] = fvd_rate.coefficients
+        self.par = par
+        self.state = np.zeros(LM_NSTATE)      # see line_model_law
 
     def law(self, t, m, fd, fd_rate, p1, p2):
-        q = self.model.q
-        rt, a1, a2 = q[Q_RT], q[Q_A1], q[Q_A2]
-        z, v = m["position_m"], m["velocity_m_s"]
-        pv = (m["pressure_valve_1_Pa"], m["pressure_valve_2_Pa"])
-        vn = self._node_volumes(z)
-        fr = [0.0, 0.0]
-        if self.state is None:
-            self.state = [pv[0], 0.0, pv[1], 0.0]
-            for s in range(2):
-                rho = pv[s] / rt
-                fr[s] = steady_coefficient(0.0, self.model.viscosity_Pa_s / rho, self.model.line_bore_m[s], 0,
-                                           self.model.viscosity_Pa_s)
-        else:
-            vo = self._node_volumes(self.z_prev)
-            for s in range(2):
-                pc, mc, fr[s] = line_model_step(self.state[2 * s], self.state[2 * s + 1], pv[s], (vo[s], vn[s]),
-                                                self.dt, self.inertance[s], self.model.line_bore_m[s],
-                                                self.model.viscosity_Pa_s, rt)
-                if not (math.isfinite(pc) and 0.0 < pc < 1e8):
-                    raise SensorInputError(f"line-model controller stopped at t = {t:.6g} s: its chamber pressure "
-                                      f"estimate P_c{s + 1} = {pc!r} Pa left its range (0, 1e8) Pa")
-                self.state[2 * s], self.state[2 * s + 1] = pc, mc
-        self.z_prev = z
-        pc1, mc1, pc2, mc2 = self.state
-        # eqs 64-65 with the A/L of eq 63: h_bar (1/s)
-        inert = 0.5 * (self.inertance[0] + self.inertance[1])
-        hbar = inert * rt / (0.5 * (fr[0] + fr[1]) * 0.5 * (vn[0] + vn[1]))
-        # F_p of eq 70 from the line model's chamber pressures (section 5.3.1: "chamber pressures
-        # are obtained using the line model"), so F_p + P_atm A_rod = P_c1 A1 - P_c2 A2
-        g1 = q[Q_VISC] * m["acceleration_m_s2"] + a1 * pc1 * (a1 * v) / vn[0] - a2 * pc2 * (-a2 * v) / vn[1]
-        e1 = fd - m["force_N"]
-        shift = (fd_rate + self.lam * e1 + g1) / hbar + self.kp1 * e1 + self.ki1 * self.integral
-        if self.km > 0:
-            # line inertia (section 5.3.1 neglects dm_c/dt): the chamber-flow force rate
-            # phi = R T (A1 m_c1 / V1 - A2 m_c2 / V2) obeys phi' = w_L^2 (F_V - F_p) - f phi with
-            # w_L^2 = h_bar f; F_vd above asks for phi_d = h_bar * shift in steady flow; the extra
-            # term makes phi_d - phi decay at flow_rate_per_s instead of coasting at the friction rate f
-            phi = rt * (a1 * mc1 / vn[0] - a2 * mc2 / vn[1])
-            w2l = inert * rt / (0.5 * (vn[0] + vn[1]))
-            shift += (self.km - w2l / hbar) * (hbar * shift - phi) / w2l
-        fvd = pc1 * a1 - pc2 * a2 + shift
-        fv = pv[0] * a1 - pv[1] * a2
-        e2 = fvd - fv
-        # F_vd': the chamber-force part from the line model itself (eq 55, no lag), the rest filtered
-        chamber_rate = (a1 * (mc1 * rt - pc1 * a1 * v) / vn[0] - a2 * (mc2 * rt + pc2 * a2 * v) / vn[1])
-        fvd_rate = chamber_rate + self.fvd_rate.update(shift)
-        # eqs 56, 67, 72 with R T: F_V' = R T (A1 (m_v1 - m_c1) / Vh1 - A2 (m_v2 - m_c2) / Vh2)
-        target = (fvd_rate + self.kp2 * e2 + self.ki2 * self.w2) / rt + a1 * mc1 / self.half[0] - a2 * mc2 / self.half[1]
-        up = psi(q[Q_PSUP], pv[0], q) * a1 / self.half[0] + psi(pv[1], q[Q_PATM], q) * a2 / self.half[1]
-        down = psi(pv[0], q[Q_PATM], q) * a1 / self.half[0] + psi(q[Q_PSUP], pv[1], q) * a2 / self.half[1]
-        c = target / max(up if target >= 0 else down, 1e-300)
-        u = command_for(c, self.cal_c, self.cal_u)
-        self._integrate(e1, u)
-        if abs(u) < 1.0 or (u > 0) != (e2 > 0):
-            self.w2 += e2 * self.dt
+        u, fvd, fv, pc1, pc2, hbar, bad = line_model_law(
+            self.state, self.par, self.model.q, self.cal_c, self.cal_u, m["position_m"], m["velocity_m_s"],
+            m["acceleration_m_s2"], m["force_N"], m["pressure_valve_1_Pa"], m["pressure_valve_2_Pa"], fd, fd_rate)
+        if bad >= 0:
+            pc = (pc1, pc2)[bad]
+            raise SensorInputError(f"line-model controller stopped at t = {t:.6g} s: its chamber pressure "
+                                   f"estimate P_c{bad + 1} = {pc!r} Pa left its range (0, 1e8) Pa")
         return u, (fvd, fv, pc1, pc2, hbar)
+
+
+# packed parameters and state of line_model_law
+(LM_DT, LM_LAM, LM_KP1, LM_KI1, LM_KP2, LM_KI2, LM_KM, LM_DEAD1, LM_DEAD2, LM_HALF1, LM_HALF2, LM_INERT1,
+ LM_INERT2, LM_BORE1, LM_BORE2, LM_MU, LM_FA, LM_FB) = range(18)
+LM_NPAR = 18
+S_PC1, S_MC1, S_PC2, S_MC2, S_ZPREV, S_STARTED, S_W1, S_W2, S_FX, S_FY = range(10)
+LM_NSTATE = 10
+
+
+@njit(cache=True)
+def line_model_law(st, par, q, cal_c, cal_u, z, v, acc, force, pv1, pv2, fd, fd_rate):
+    """One sample of :class:`LineModel` (eqs 63-72 with the module's unit corrections), state
+    ``st`` (line-model pressures and flows, previous position, integrals w_1 and w_2, the F_vd
+    derivative filter) updated in place.  Returns (u, F_vd, F_V, P_c1, P_c2, h_bar, bad) with bad
+    the side (0, 1) whose chamber-pressure estimate left (0, 1e8) Pa, else -1."""
+    rt, a1, a2 = q[Q_RT], q[Q_A1], q[Q_A2]
+    dt, mu = par[LM_DT], par[LM_MU]
+    half1, half2 = par[LM_HALF1], par[LM_HALF2]
+    vn1 = par[LM_DEAD1] + a1 * z + half1
+    vn2 = par[LM_DEAD2] + a2 * (q[Q_STROKE] - z) + half2
+    if st[S_STARTED] == 0.0:
+        st[S_PC1], st[S_MC1], st[S_PC2], st[S_MC2] = pv1, 0.0, pv2, 0.0
+        fr1 = steady_coefficient(0.0, mu / (pv1 / rt), par[LM_BORE1], 0, mu)
+        fr2 = steady_coefficient(0.0, mu / (pv2 / rt), par[LM_BORE2], 0, mu)
+        st[S_STARTED] = 1.0
+    else:
+        zp = st[S_ZPREV]
+        vo1 = par[LM_DEAD1] + a1 * zp + half1
+        vo2 = par[LM_DEAD2] + a2 * (q[Q_STROKE] - zp) + half2
+        pc, mc, fr1 = line_model_step(st[S_PC1], st[S_MC1], pv1, (vo1, vn1), dt, par[LM_INERT1], par[LM_BORE1], mu, rt)
+        st[S_PC1], st[S_MC1] = pc, mc
+        if not (math.isfinite(pc) and 0.0 < pc < 1e8):
+            return 0.0, 0.0, 0.0, pc, st[S_PC2], 0.0, 0
+        pc, mc, fr2 = line_model_step(st[S_PC2], st[S_MC2], pv2, (vo2, vn2), dt, par[LM_INERT2], par[LM_BORE2], mu, rt)
+        st[S_PC2], st[S_MC2] = pc, mc
+        if not (math.isfinite(pc) and 0.0 < pc < 1e8):
+            return 0.0, 0.0, 0.0, st[S_PC1], pc, 0.0, 1
+    st[S_ZPREV] = z
+    pc1, mc1, pc2, mc2 = st[S_PC1], st[S_MC1], st[S_PC2], st[S_MC2]
+    # eqs 64-65 with the A/L of eq 63: h_bar (1/s)
+    inert = 0.5 * (par[LM_INERT1] + par[LM_INERT2])
+    hbar = inert * rt / (0.5 * (fr1 + fr2) * 0.5 * (vn1 + vn2))
+    # F_p of eq 70 from the line model's chamber pressures (section 5.3.1: "chamber pressures
+    # are obtained using the line model"), so F_p + P_atm A_rod = P_c1 A1 - P_c2 A2
+    g1 = q[Q_VISC] * acc + a1 * pc1 * (a1 * v) / vn1 - a2 * pc2 * (-a2 * v) / vn2
+    e1 = fd - force
+    shift = (fd_rate + par[LM_LAM] * e1 + g1) / hbar + par[LM_KP1] * e1 + par[LM_KI1] * st[S_W1]
+    km = par[LM_KM]
+    if km > 0:
+        # line inertia (section 5.3.1 neglects dm_c/dt): the chamber-flow force rate
+        # phi = R T (A1 m_c1 / V1 - A2 m_c2 / V2) obeys phi' = w_L^2 (F_V - F_p) - f phi with
+        # w_L^2 = h_bar f; F_vd above asks for phi_d = h_bar * shift in steady flow; the extra
+        # term makes phi_d - phi decay at k_m instead of coasting at the friction rate f
+        phi = rt * (a1 * mc1 / vn1 - a2 * mc2 / vn2)
+        w2l = inert * rt / (0.5 * (vn1 + vn2))
+        shift += (km - w2l / hbar) * (hbar * shift - phi) / w2l
+    fvd = pc1 * a1 - pc2 * a2 + shift
+    fv = pv1 * a1 - pv2 * a2
+    e2 = fvd - fv
+    # F_vd': the chamber-force part from the line model itself (eq 55, no lag), the rest through
+    # the first-order filtered derivative (Tustin, as DifferentiatingFilter)
+    chamber_rate = a1 * (mc1 * rt - pc1 * a1 * v) / vn1 - a2 * (mc2 * rt + pc2 * a2 * v) / vn2
+    if st[S_STARTED] == 1.0:
+        st[S_FX] = shift
+        st[S_STARTED] = 2.0
+    st[S_FY] = par[LM_FA] * st[S_FY] + par[LM_FB] * (shift - st[S_FX])
+    st[S_FX] = shift
+    fvd_rate = chamber_rate + st[S_FY]
+    # eqs 56, 67, 72 with R T: F_V' = R T (A1 (m_v1 - m_c1) / Vh1 - A2 (m_v2 - m_c2) / Vh2)
+    target = (fvd_rate + par[LM_KP2] * e2 + par[LM_KI2] * st[S_W2]) / rt + a1 * mc1 / half1 - a2 * mc2 / half2
+    if target >= 0:
+        den = psi(q[Q_PSUP], pv1, q) * a1 / half1 + psi(pv2, q[Q_PATM], q) * a2 / half2
+    else:
+        den = psi(pv1, q[Q_PATM], q) * a1 / half1 + psi(q[Q_PSUP], pv2, q) * a2 / half2
+    u = command_for(target / max(den, 1e-300), cal_c, cal_u)
+    # anti-windup: integrate unless the command is saturated and the error would push it further
+    if abs(u) < 1.0 or (u > 0) != (e1 > 0):
+        st[S_W1] += e1 * dt
+    if abs(u) < 1.0 or (u > 0) != (e2 > 0):
+        st[S_W2] += e2 * dt
+    return u, fvd, fv, pc1, pc2, hbar, -1
 
 
 def _check_gains(**gains) -> None:

@@ -151,12 +151,13 @@ class PressureObserver:
     """Chamber-pressure estimator of one of :data:`OBSERVER_KINDS`, updated once per sample.
 
     ``gain_m6_s``: k of eq 22 for kind ``force`` (ignored otherwise); ``initial_Pa``: the
-    starting estimates (the thesis starts from zero); ``gain_on_s``: time at which the
+    starting estimates (default: the atmosphere, the plant's rest state, so plant and
+    estimator start from one physical state; the thesis' plots start from zero); ``gain_on_s``: time at which the
     correction is switched on (before it the observer runs as the standard model, Figure 27).
     """
 
     def __init__(self, model: ObserverModel, kind: str = "force", gain_m6_s: float = 0.0,
-                 dt_s: float = 1e-3, initial_Pa: tuple[float, float] = (0.0, 0.0), gain_on_s: float = 0.0):
+                 dt_s: float = 1e-3, initial_Pa: tuple[float, float] | None = None, gain_on_s: float = 0.0):
         if kind not in OBSERVER_KINDS:
             raise SensorInputError(f"observer = {kind!r}: must be one of {', '.join(OBSERVER_KINDS)}")
         if not (math.isfinite(gain_m6_s) and gain_m6_s >= 0):
@@ -167,32 +168,44 @@ class PressureObserver:
         self.model, self.kind, self.dt = model, kind, float(dt_s)
         self.k = float(gain_m6_s) if kind == "force" else 0.0
         self.gain_on_s = float(gain_on_s)
+        if initial_Pa is None:
+            initial_Pa = (model.q[Q_PATM], model.q[Q_PATM])
         self._p0 = tuple(float(p) for p in initial_Pa)
-        self._x: tuple[float, float] | None = None
+        self._x: tuple | None = None      # (x_hat_1, x_hat_2, P_hat_1, P_hat_2, F_p) of observer_update
         self.pressures = self._p0
         self.fp_measured = 0.0
 
     def update(self, t: float, m: dict, u_prev: float) -> tuple[float, float]:
         """Advance to the sample at t with the previous command u_prev; returns (P_hat_1, P_hat_2)."""
         q = self.model.q
-        z = m["position_m"]
-        self.fp_measured = measured_actuator_force(m["force_N"], m["velocity_m_s"], m["acceleration_m_s2"], q)
         if self.kind == "valve":
+            self.fp_measured = measured_actuator_force(m["force_N"], m["velocity_m_s"], m["acceleration_m_s2"], q)
             self.pressures = (m["pressure_valve_1_Pa"], m["pressure_valve_2_Pa"])
             return self.pressures
-        v1, v2 = volumes(z, q)
-        if self._x is None:
-            self._x = (self._p0[0] * v1, self._p0[1] * v2)
-        else:
-            k = self.k if t >= self.gain_on_s else 0.0
-            self._x = observer_step(self._x[0], self._x[1], u_prev, z, self.fp_measured, k, self.dt,
-                                    q, self.model.grid, self.model.supply_conductance,
-                                    self.model.exhaust_conductance)
-        p1, p2 = self._x[0] / v1, self._x[1] / v2
+        first = self._x is None
+        x = self._p0 if first else self._x
+        self._x = _, _, p1, p2, self.fp_measured = observer_update(
+            x[0], x[1], first, u_prev, m["position_m"], m["force_N"], m["velocity_m_s"], m["acceleration_m_s2"],
+            self.k if t >= self.gain_on_s else 0.0, self.dt, q, self.model.grid, self.model.supply_conductance,
+            self.model.exhaust_conductance)
         limit = 100.0 * q[Q_PSUP]
-        for i, p in enumerate((p1, p2)):
-            if not (math.isfinite(p) and abs(p) < limit):
-                raise SensorInputError(f"observer stopped at t = {t:.6g} s: estimated chamber pressure "
-                                  f"P_hat_{i + 1} = {p!r} Pa left its range (|P| < {limit:.3g} Pa)")
+        if not (abs(p1) < limit and abs(p2) < limit):       # False for NaN too
+            i, p = (1, p1) if not abs(p1) < limit else (2, p2)
+            raise SensorInputError(f"observer stopped at t = {t:.6g} s: estimated chamber pressure "
+                                   f"P_hat_{i} = {p!r} Pa left its range (|P| < {limit:.3g} Pa)")
         self.pressures = (p1, p2)
         return self.pressures
+
+
+@njit(cache=True)
+def observer_update(x1, x2, first, u_prev, z, force_N, velocity_m_s, acceleration_m_s2, k, h, q, grid, csup, cexh):
+    """One sample of the observer: F_p from the readings (eq 18), then (unless ``first``, when
+    x1, x2 are the starting pressures) one :func:`observer_step`.  Returns (x_hat_1, x_hat_2,
+    P_hat_1, P_hat_2, F_p)."""
+    fp = measured_actuator_force(force_N, velocity_m_s, acceleration_m_s2, q)
+    v1, v2 = volumes(z, q)
+    if first:
+        x1, x2 = x1 * v1, x2 * v2
+    else:
+        x1, x2 = observer_step(x1, x2, u_prev, z, fp, k, h, q, grid, csup, cexh)
+    return x1, x2, x1 / v1, x2 / v2, fp

@@ -87,6 +87,11 @@ class DifferentiatingFilter:
         self._x = None
         self._y = 0.0
 
+    @property
+    def coefficients(self) -> tuple[float, float]:
+        """(a, b) of the recursion y_k = a y_(k-1) + b (x_k - x_(k-1)), for compiled copies."""
+        return self._a, self._b
+
     def update(self, x: float) -> float:
         if self._x is None:
             self._x = x

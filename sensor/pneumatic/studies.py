@@ -5,7 +5,21 @@ in the loop.
 fixed-rate harness and returns the harness' dataset with the controller's log added
 (estimated pressures, desired force, virtual input, ...).  :func:`metrics` gives the figures
 the thesis reports: the force-control MSE and the pressure-estimation MSE of eq 44 over the
-steady window (the last two seconds of a periodic run; the two seconds from the step).
+steady window (the last whole cycles covering two seconds; the two seconds from a step), and
+whether the run had settled there (:func:`settling`, DESIGN section 15).
+
+One physical start: plant (chambers and every line node at the atmosphere, piston at
+mid-stroke, spring relaxed: zero force, an equilibrium of eq 17-18), observer and line-model
+estimators all start from the atmosphere.  Settling rule (periodic references): the per-cycle
+MSE of the force, of the estimate's pressure and (line-model controller) of the virtual input
+and its line model's pressure, averaged over the last five whole cycles, differs from its
+average over the five cycles before by less than 5 %, or by less than twice the standard error
+of that difference from the scatter within the blocks (the inner loop's noise-driven
+cycle-to-cycle scatter of about 10 % is not a transient; a drift is), or by less than a floor
+near the sensors' noise (1e-3 N^2 / 0.05 kPa^2).  The valve-port pressure error is a property
+of the plant, reported but not part of the rule.  A step: the force error's RMS over the 0.2 s
+before the step and over the last 0.2 s of its window is below 5 % of the step.  A run that
+fails the rule is reported with ``settled: false``.
 
 The studies (:func:`observer_study`, :func:`controller_study`, :func:`sensor_study`) run the
 experiment grids of Figures 16-19 and 26-27, Table 4 and Figures 32-37, and the sensor-in-the-
@@ -22,7 +36,9 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -31,6 +47,7 @@ import xarray as xr
 from sensor.errors import CapacityWarning, SensorInputError
 from sensor.pneumatic.controllers import (
     CONTROLLERS,
+    LINE_MODEL_VARIANTS,
     Impedance,
     LineModel,
     PIForce,
@@ -50,6 +67,20 @@ from sensor.pneumatic.valve import VALVES
 
 MSE_WINDOW_S = 2.0       # thesis 5.4.2: "mean of error squares obtained in a 2-second time interval"
 OBSERVER_RATE_HZ = 10.0  # correction pole at mid-stroke (k of eq 22 from it)
+STUDY_DURATION_S = 30.0  # shortest study run; long enough to settle by the rule above ...
+SETTLE_PERIODS = 25      # ... and at least this many periods: the SMC's observer error needs ~20 s
+                         # at 1 Hz and ~40 s at 0.5 Hz to reach its steady size (measured)
+STEP_AT_S = 3.0          # a step reference jumps here, after the start has settled
+SETTLE_CYCLES = 5       # cycles per block of the settling rule
+SETTLE_CHANGE = 0.05
+SETTLE_FLOOR = {"N2": 1e-3, "kPa2": 0.05}   # ~ the sensors' noise: (0.02 N)^2 x 2.5, (0.2 kPa)^2 + 25 %
+STEP_SETTLE_FRACTION = 0.05
+STEP_SETTLE_S = 0.2
+SETTLING_RULE = ("periodic: the per-cycle MSE of the force, the estimate's pressure and (line model) the virtual "
+                 "input and its pressure, averaged over the last 5 cycles, differs from its average over the 5 "
+                 "cycles before by < 5 %, or by less than twice the standard error the cycle-to-cycle scatter "
+                 "gives that difference, or by < 1e-3 N^2 / 0.05 kPa^2; step: force-error RMS < 5 % of the step over the "
+                 "0.2 s before it and the last 0.2 s of its window")
 
 
 @dataclass(frozen=True)
@@ -68,7 +99,8 @@ class Setup:
     line_model: str = "distributed"
     segments: int = 20
     valve: str = "festo-mpye-5-1/8-lf"
-    duration_s: float = 6.0
+    duration_s: float = STUDY_DURATION_S
+    step_s: float = STEP_AT_S
     observer_rate_Hz: float = OBSERVER_RATE_HZ
     observer_on_s: float = 0.0
     environment: Environment = field(default_factory=lambda: mass_spring_damper(0.0, 5000.0, 20.0, 0.025))
@@ -88,7 +120,14 @@ class Setup:
 
     @property
     def ref(self) -> Reference:
-        return parse_reference(self.reference, self.amplitude_N, self.offset_N)
+        return parse_reference(self.reference, self.amplitude_N, self.offset_N, self.step_s)
+
+
+def settling_duration_s(reference: str) -> float:
+    """Default run length (s) for a reference: STUDY_DURATION_S, or SETTLE_PERIODS periods of a
+    slower periodic reference (0.5 Hz: 50 s)."""
+    ref = parse_reference(reference)
+    return STUDY_DURATION_S if ref.kind == "step" else max(STUDY_DURATION_S, SETTLE_PERIODS / ref.frequency_Hz)
 
 
 def build_plant(setup: Setup) -> Plant:
@@ -103,8 +142,8 @@ def default_gains(setup: Setup, plant: Plant) -> dict:
     defaults (chapter IV, 7.25 m)."""
     if setup.controller == "smc":
         return smc_gains(plant)
-    if setup.controller == "line-model":
-        return line_model_gains(plant)
+    if setup.controller in LINE_MODEL_VARIANTS:
+        return line_model_gains(plant, LINE_MODEL_VARIANTS[setup.controller])
     return {}
 
 
@@ -179,35 +218,89 @@ def run(setup: Setup, rate_Hz: float = 1000.0) -> xr.Dataset:
 
 
 def window(ds: xr.Dataset, reference: Reference) -> slice:
-    """The steady window: the last MSE_WINDOW_S of a periodic run, or MSE_WINDOW_S from a step."""
+    """The steady window: the last whole cycles covering MSE_WINDOW_S of a periodic run, or
+    MSE_WINDOW_S from a step."""
     end = float(ds.time[-1])
     if reference.kind == "step":
         return slice(reference.step_s, min(end, reference.step_s + MSE_WINDOW_S))
     period = 1.0 / reference.frequency_Hz
-    span = max(period, math.floor(MSE_WINDOW_S / period) * period)
+    span = max(period, math.ceil(MSE_WINDOW_S / period - 1e-9) * period)
     return slice(end - span, end)
 
 
+def squared_errors(ds: xr.Dataset) -> dict[str, np.ndarray]:
+    """Per-sample squared errors whose means are the reported MSEs: force (N^2), eq 44's
+    1/2 (P~1^2 + P~2^2) of the estimate, the valve ports and the line model (kPa^2), and the
+    virtual input's (N^2).  NaN at the last sample, which has no controller row."""
+    def pressure(p1, p2):
+        return 0.5 * ((p1 - ds.pressure_chamber.sel(side=1).values) ** 2
+                      + (p2 - ds.pressure_chamber.sel(side=2).values) ** 2) / 1e6
+    out = {"force_mse_N2": (ds.desired_force_N.values - ds.environment_force.values) ** 2,
+           "pressure_mse_kPa2": pressure(ds.estimated_pressure_1_Pa.values, ds.estimated_pressure_2_Pa.values),
+           "valve_pressure_mse_kPa2": pressure(ds.pressure_valve.sel(side=1).values, ds.pressure_valve.sel(side=2).values)}
+    if "virtual_input_N" in ds:
+        out["virtual_input_mse_N2"] = (ds.virtual_input_desired_N.values - ds.virtual_input_N.values) ** 2
+        out["line_model_pressure_mse_kPa2"] = pressure(ds.line_model_pressure_1_Pa.values,
+                                                       ds.line_model_pressure_2_Pa.values)
+    return out
+
+
+def per_cycle(ds: xr.Dataset, frequency_Hz: float, errors: dict | None = None) -> dict:
+    """Each MSE of :func:`squared_errors` over each whole cycle of a periodic reference
+    (``cycle_start_s`` and one list per quantity; Figure 27)."""
+    errors = squared_errors(ds) if errors is None else errors
+    t = ds.time.values
+    period = 1.0 / frequency_Hz
+    n = int((t[-1] + 1e-9) // period)
+    edges = np.searchsorted(t, np.arange(n + 1) * period - 1e-9)
+    out = {"cycle_start_s": [i * period for i in range(n)]}
+    for key, sq in errors.items():
+        out[key] = [float(np.nanmean(sq[edges[i]:edges[i + 1]])) for i in range(n)]
+    return out
+
+
+def settling(ds: xr.Dataset, reference: Reference, errors: dict | None = None) -> dict:
+    """Whether the run settled by the module's rule (:data:`SETTLING_RULE`): ``settled`` and
+    the evidence (``last_cycles`` per quantity, or the step's two RMS errors in N)."""
+    errors = squared_errors(ds) if errors is None else errors
+    if reference.kind == "step":
+        t = ds.time.values
+        e2 = errors["force_mse_N2"]
+        before = (t >= reference.step_s - STEP_SETTLE_S) & (t < reference.step_s)
+        end = min(float(t[-1]), reference.step_s + MSE_WINDOW_S)
+        after = (t > end - STEP_SETTLE_S) & (t <= end)
+        rms = [float(np.sqrt(np.nanmean(e2[m]))) if m.any() else math.nan for m in (before, after)]
+        limit = STEP_SETTLE_FRACTION * abs(reference.amplitude_N)
+        return {"settled": bool(all(r < limit for r in rms)), "step_rms_error_N": rms, "limit_N": limit}
+    cyc = per_cycle(ds, reference.frequency_Hz, errors)
+    n = SETTLE_CYCLES
+    last = {k: v[-2 * n:] for k, v in cyc.items() if k not in ("cycle_start_s", "valve_pressure_mse_kPa2")}
+    ok = len(cyc["cycle_start_s"]) >= 2 * n
+    for key, vals in last.items() if ok else ():
+        before, after = np.asarray(vals[:n]), np.asarray(vals[n:])
+        change = abs(after.mean() - before.mean())
+        scatter = 2.0 * math.sqrt((before.var(ddof=1) + after.var(ddof=1)) / n)
+        floor = SETTLE_FLOOR["kPa2" if key.endswith("kPa2") else "N2"]
+        ok = ok and change <= max(SETTLE_CHANGE * max(before.mean(), after.mean()), scatter, floor)
+    return {"settled": bool(ok), "last_cycles": last}
+
+
 def metrics(ds: xr.Dataset, reference: Reference) -> dict:
-    """Force-control MSE (N^2) and eq 44 pressure-estimation MSE, 1/2 mean(P~1^2 + P~2^2) in
-    kPa^2, over the steady window; MSE_2 (virtual input) for the line-model controller."""
-    w = ds.sel(time=window(ds, reference))
-    if w.sizes["time"] < 2:
-        raise SensorInputError(f"duration {float(ds.time[-1]):.4g} s: too short for the MSE window "
-                          f"(a step at {reference.step_s:g} s needs a longer run)")
-    w = w.isel(time=slice(0, -1)) if np.isnan(w.desired_force_N.values[-1]) else w
-    e = w.desired_force_N - w.environment_force
-    pt = np.stack([w.estimated_pressure_1_Pa - w.pressure_chamber.sel(side=1),
-                   w.estimated_pressure_2_Pa - w.pressure_chamber.sel(side=2)])
-    vt = np.stack([w.pressure_valve.sel(side=s) - w.pressure_chamber.sel(side=s) for s in (1, 2)])
-    out = {"force_mse_N2": float((e**2).mean()), "pressure_mse_kPa2": float(0.5 * np.mean(np.sum(pt**2, 0)) / 1e6),
-           "valve_pressure_mse_kPa2": float(0.5 * np.mean(np.sum(vt**2, 0)) / 1e6),
-           "window_s": [float(w.time[0]), float(w.time[-1])]}
-    if "virtual_input_N" in w:
-        out["virtual_input_mse_N2"] = float(((w.virtual_input_desired_N - w.virtual_input_N) ** 2).mean())
-        lt = np.stack([w.line_model_pressure_1_Pa - w.pressure_chamber.sel(side=1),
-                       w.line_model_pressure_2_Pa - w.pressure_chamber.sel(side=2)])
-        out["line_model_pressure_mse_kPa2"] = float(0.5 * np.mean(np.sum(lt**2, 0)) / 1e6)
+    """Force-control MSE (N^2) and eq 44 pressure-estimation MSE in kPa^2 (estimate and valve
+    ports; for the line-model controller also MSE_2 and its line model's pressure MSE) over the
+    steady window, with ``settled`` by :func:`settling`."""
+    sl = window(ds, reference)
+    t = ds.time.values
+    inside = (t >= sl.start - 1e-9) & (t <= sl.stop + 1e-9)
+    errors = squared_errors(ds)
+    if np.count_nonzero(inside & np.isfinite(errors["force_mse_N2"])) < 2:
+        raise SensorInputError(f"duration {float(t[-1]):.4g} s: too short for the MSE window "
+                               f"(a step at {reference.step_s:g} s needs a longer run)")
+    out = {key: float(np.nanmean(sq[inside])) for key, sq in errors.items()}
+    out["window_s"] = [float(t[inside][0]), float(t[inside][-1])]
+    st = settling(ds, reference, errors)
+    out["settled"] = st["settled"]
+    out["settling"] = {k: v for k, v in st.items() if k != "settled"}
     return out
 
 
@@ -250,7 +343,12 @@ def series_spring(environment_N_m: float, sensor_N_m: float) -> float:
 
 # --- the studies -----------------------------------------------------------------------------------
 
-def _row(setup: Setup, **extra) -> dict:
+ESTIMATORS = {"force": "observer", "standard": "open_loop", "valve": "valve_ports"}   # kind -> JSON key
+ESTIMATOR_HEADINGS = {"observer": "observer", "open_loop": "open loop (standard model)",
+                      "valve_ports": "valve ports"}
+
+
+def _row(setup: Setup, **extra) -> tuple[dict, xr.Dataset]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CapacityWarning)
         ds = run(setup)
@@ -259,33 +357,68 @@ def _row(setup: Setup, **extra) -> dict:
     return out, ds
 
 
-def observer_study(duration_s: float = 8.0, segments: int = 20) -> dict:
-    """Chapter IV: estimation MSE (eq 44) of observer, standard model and valve pressures at 1 and
-    2 Hz PI force tracking (24 N) and square-wave impedance control, 7.25 m lines, Festo valve
-    (Figures 16-18); SMC impedance control with observer vs open-loop estimation at 0.5, 1 and
-    1.5 Hz, Enfield valve (Figure 26); the switch-on transient of Figure 27."""
-    tables: dict = {"estimation": [], "smc": [], "switch_on": {}}
-    runs = {}
-    for ctrl, ref in (("pi", "sine:1Hz"), ("pi", "sine:2Hz"), ("impedance", "square:0.5Hz")):
-        for obs in OBSERVER_KINDS:
-            s = Setup(controller=ctrl, observer=obs, reference=ref, duration_s=duration_s, segments=segments)
-            row, ds = _row(s, experiment=f"{ctrl} {ref}", observer=obs)
-            tables["estimation"].append(row)
-            runs[(ctrl, ref, obs)] = ds
-    for f in (0.5, 1.0, 1.5):
-        for obs in ("force", "standard"):
-            s = Setup(controller="smc", observer=obs, reference=f"sine:{f:g}Hz", duration_s=duration_s,
-                      segments=segments, valve="enfield-lh05")
-            s = replace(s, gains=(("impedance", _impedance_for(s)),))
-            row, ds = _row(s, experiment=f"smc impedance z_d sine:{f:g}Hz", observer=obs)
-            tables["smc"].append(row)
-    s = Setup(controller="smc", observer="force", reference="sine:0.5Hz", duration_s=16.0, segments=segments,
-              valve="enfield-lh05", observer_on_s=8.0)
-    s = replace(s, gains=(("impedance", _impedance_for(s)),))
-    ds = run(s)
-    tables["switch_on"] = {"on_s": 8.0, **per_cycle(ds, 0.5)}
-    runs["switch_on"] = ds
-    return {"tables": tables, "runs": runs}
+def _run_plan(plan: list[tuple[object, Setup]], progress) -> dict:
+    """Run every (key, setup) of ``plan``; ``progress(done, total, label)`` after each."""
+    done = {}
+    for i, (key, setup) in enumerate(plan):
+        done[key] = _row(setup)
+        if progress is not None:
+            progress(i + 1, len(plan), f"{setup.controller} {setup.reference} {setup.line_length_m:g} m")
+    return done
+
+
+OBSERVER_EXPERIMENTS = (("pi", "sine:1Hz", "Figure 16"), ("pi", "sine:2Hz", "Figure 17"),
+                        ("impedance", "square:0.5Hz", "Figure 18"), ("smc", "sine:0.5Hz", "Figure 26"),
+                        ("smc", "sine:1Hz", "Figure 26"), ("smc", "sine:1.5Hz", "Figure 26"))
+
+
+def _observer_setup(ctrl: str, ref: str, kind: str, duration_s: float | None, segments: int, **kw) -> Setup:
+    duration_s = settling_duration_s(ref) if duration_s is None else duration_s
+    if ctrl != "smc":
+        return Setup(controller=ctrl, observer=kind, reference=ref, duration_s=duration_s, segments=segments, **kw)
+    s = Setup(controller="smc", observer=kind, reference=ref, duration_s=duration_s, segments=segments,
+              valve="enfield-lh05", **kw)
+    return replace(s, gains=(("impedance", _impedance_for(s)),))
+
+
+def observer_study(duration_s: float | None = None, segments: int = 20, progress=None) -> dict:
+    """Chapter IV, 7.25 m lines: eq 44 pressure-estimation MSE (kPa^2) of the observer, the
+    open-loop standard model and the valve-port pressures, and the force MSE of each run, at 1
+    and 2 Hz PI force tracking and square-wave impedance control (Festo valve, Figures 16-18)
+    and SMC impedance control with z_d a 0.5, 1 or 1.5 Hz sine (Enfield valve, Figure 26); and
+    the switch-on of Figure 27 (0.5 Hz, observer on after ``duration_s``, run twice as long).
+    ``duration_s``: every run's length (default :func:`settling_duration_s` of its reference).
+
+    Returns ``experiments`` (one dict per experiment with the keys ``observer``, ``open_loop``,
+    ``valve_ports`` in kPa^2, ``force_mse_N2`` per estimator, ``settled``), ``switch_on``,
+    ``runs`` (datasets by (controller, reference, estimator key))."""
+    plan = [((c, r, key), _observer_setup(c, r, kind, duration_s, segments))
+            for c, r, _ in OBSERVER_EXPERIMENTS for kind, key in ESTIMATORS.items()]
+    on_s = settling_duration_s("sine:0.5Hz") if duration_s is None else duration_s
+    plan.append(("switch_on", _observer_setup("smc", "sine:0.5Hz", "force", 2 * on_s, segments,
+                                              observer_on_s=on_s)))
+    done = _run_plan(plan, progress)
+    experiments = []
+    for c, r, fig in OBSERVER_EXPERIMENTS:
+        rows = {key: done[(c, r, key)][0] for key in ESTIMATORS.values()}
+        experiments.append({"experiment": f"{c} {r}" if c != "smc" else f"smc impedance z_d {r}", "figure": fig,
+                            "controller": c, "reference": r,
+                            **{key: rows[key]["pressure_mse_kPa2"] for key in rows},
+                            "force_mse_N2": {key: rows[key]["force_mse_N2"] for key in rows},
+                            "settled": all(rows[key]["settled"] for key in rows),
+                            "settled_by_estimator": {key: rows[key]["settled"] for key in rows},
+                            "window_s": rows["observer"]["window_s"],
+                            "warnings": sorted({w for key in rows for w in rows[key]["warnings"]})})
+    sw = per_cycle(done["switch_on"][1], 0.5)
+    before = [i for i, c in enumerate(sw["cycle_start_s"]) if on_s - 3 * 2.0 <= c < on_s]
+    after = list(range(len(sw["cycle_start_s"])))[-3:]
+    switch_on = {"on_s": on_s, "cycle_start_s": sw["cycle_start_s"], "force_mse_N2": sw["force_mse_N2"],
+                 "pressure_mse_kPa2": sw["pressure_mse_kPa2"],
+                 "before": {k: float(np.mean([sw[k][i] for i in before])) for k in ("force_mse_N2", "pressure_mse_kPa2")},
+                 "after": {k: float(np.mean([sw[k][i] for i in after])) for k in ("force_mse_N2", "pressure_mse_kPa2")},
+                 "note": "means over the 3 cycles before the switch-on and the last 3 cycles"}
+    runs = {k: v[1] for k, v in done.items()}
+    return {"experiments": experiments, "switch_on": switch_on, "runs": runs}
 
 
 def _impedance_for(setup: Setup) -> Impedance:
@@ -294,23 +427,13 @@ def _impedance_for(setup: Setup) -> Impedance:
     return Impedance(model, setup.ref, PressureObserver(model, "valve"), 1e-3)
 
 
-def per_cycle(ds: xr.Dataset, frequency_Hz: float) -> dict:
-    """Force MSE (N^2) and eq 44 pressure MSE (kPa^2) in each whole cycle (Figure 27)."""
-    period = 1.0 / frequency_Hz
-    n = int(float(ds.time[-1]) // period)
-    force, pressure, start = [], [], []
-    for i in range(n):
-        w = ds.sel(time=slice(i * period, (i + 1) * period - 1e-9))
-        e = w.desired_force_N - w.environment_force
-        pt = [w[f"estimated_pressure_{s}_Pa"] - w.pressure_chamber.sel(side=s) for s in (1, 2)]
-        force.append(float((e**2).mean()))
-        pressure.append(float(0.5 * (pt[0] ** 2 + pt[1] ** 2).mean() / 1e6))
-        start.append(i * period)
-    return {"cycle_start_s": start, "force_mse_N2": force, "pressure_mse_kPa2": pressure}
-
-
 CH5_LENGTHS_M = (2.0, 5.0, 7.25, 10.0)
 CH5_REFERENCES = ("step", "sine:0.5Hz", "sine:1Hz", "sine:2Hz")
+# row key -> controller: the thesis' line-model controller (eqs 70, 72 as written) is the primary
+# row, the project's line-flow damping a named extension
+CH5_CONTROLLERS = {"smc": "smc", "line_model_thesis": "line-model", "line_model_damped": "line-model-damped"}
+CH5_HEADINGS = {"smc": "SMC", "line_model_thesis": "line model (thesis, k_m = 0)",
+                "line_model_damped": "line model + k_m (ours)"}
 # Table 4 (line-model controller): length -> {reference: (MSE_1, MSE_2)} in N^2
 TABLE4 = {2.0: {"sine:0.5Hz": (6.38, 4.33), "sine:1Hz": (9.28, 5.68), "sine:2Hz": (17.63, 8.16)},
           5.0: {"sine:0.5Hz": (1.23, 3.66), "sine:1Hz": (2.63, 5.89), "sine:2Hz": (6.44, 8.22)},
@@ -318,53 +441,186 @@ TABLE4 = {2.0: {"sine:0.5Hz": (6.38, 4.33), "sine:1Hz": (9.28, 5.68), "sine:2Hz"
           10.0: {"sine:0.5Hz": (2.44, 6.33), "sine:1Hz": (7.08, 8.85), "sine:2Hz": (22.85, 10.37)}}
 
 
-def controller_study(duration_s: float = 6.0, amplitude_N: float = 24.0, segments: int = 20,
-                     lengths=CH5_LENGTHS_M, references=CH5_REFERENCES, keep_runs=()) -> dict:
-    """Chapter V: line-model controller vs standard SMC (standard-model pressures) on 2, 5, 7.25
-    and 10 m lines with step, 0.5, 1 and 2 Hz references, Enfield valve; gains per length from
-    the line (:func:`default_gains`, section 5.4.2), the same for every reference."""
-    rows, runs = [], {}
+def controller_study(duration_s: float | None = None, amplitude_N: float = 24.0, segments: int = 20,
+                     lengths=CH5_LENGTHS_M, references=CH5_REFERENCES, keep_runs=(), progress=None) -> dict:
+    """Chapter V on 2, 5, 7.25 and 10 m lines with step, 0.5, 1 and 2 Hz references, Enfield valve,
+    standard-model pressures for SMC: SMC, the thesis' line-model controller and ours with k_m;
+    gains per length from the line (:func:`default_gains`, section 5.4.2), the same for every
+    reference; ``duration_s`` every run's length (default :func:`settling_duration_s`).  One row
+    per (length, reference) with ``smc``, ``line_model_thesis`` and
+    ``line_model_damped`` (each ``mse1_N2``, ``mse2_N2``, pressure MSEs, ``settled``, gains),
+    ``thesis_table4`` and ``settled``; ``runs`` keeps the datasets named in ``keep_runs``
+    ((length, reference, row key))."""
+    plan = [((length, ref, key), Setup(controller=ctrl, observer="standard", reference=ref, amplitude_N=amplitude_N,
+                                       line_length_m=length, valve="enfield-lh05",
+                                       duration_s=settling_duration_s(ref) if duration_s is None else duration_s,
+                                       segments=segments))
+            for length in lengths for ref in references for key, ctrl in CH5_CONTROLLERS.items()]
+    done = _run_plan(plan, progress)
+    rows = []
     for length in lengths:
         for ref in references:
-            for ctrl in ("smc", "line-model"):
-                s = Setup(controller=ctrl, observer="standard", reference=ref, amplitude_N=amplitude_N,
-                          line_length_m=length, duration_s=duration_s, valve="enfield-lh05", segments=segments)
-                row, ds = _row(s, line_length_m=length, reference=ref, controller=ctrl)
-                thesis = TABLE4.get(length, {}).get(ref)
-                if ctrl == "line-model" and thesis:
-                    row["thesis_mse1_N2"], row["thesis_mse2_N2"] = thesis
-                rows.append(row)
-                if (length, ref, ctrl) in keep_runs:
-                    runs[(length, ref, ctrl)] = ds
+            row = {"line_length_m": length, "reference": ref}
+            for key in CH5_CONTROLLERS:
+                r = done[(length, ref, key)][0]
+                row[key] = {"mse1_N2": r["force_mse_N2"], "mse2_N2": r.get("virtual_input_mse_N2"),
+                            "pressure_mse_kPa2": r["pressure_mse_kPa2"],
+                            "line_model_pressure_mse_kPa2": r.get("line_model_pressure_mse_kPa2"),
+                            "settled": r["settled"], "window_s": r["window_s"], "gains": r["gains"],
+                            "warnings": r["warnings"]}
+            th = TABLE4.get(length, {}).get(ref)
+            row["thesis_table4"] = {"mse1_N2": th[0], "mse2_N2": th[1]} if th else None
+            row["settled"] = all(row[key]["settled"] for key in CH5_CONTROLLERS)
+            rows.append(row)
+    runs = {k: v[1] for k, v in done.items() if k in set(keep_runs)}
     return {"rows": rows, "runs": runs}
 
 
 SENSOR_PRESETS = ("basis-as-cut", "sample-a-as-cut", "sample-b-as-cut")
 
 
-def sensor_study(duration_s: float = 8.0, environment_N_m: float = 2000.0, segments: int = 20,
-                 presets=SENSOR_PRESETS, frequency_Hz: float = 1.0) -> dict:
+def sensor_reference(range_N: float) -> tuple[float, float]:
+    """(amplitude, offset) in N of a sine between 15 % and 85 % of a sensor's range."""
+    return 0.35 * range_N, 0.5 * range_N
+
+
+def sensor_study(duration_s: float = STUDY_DURATION_S, environment_N_m: float = 2000.0, segments: int = 20,
+                 presets=SENSOR_PRESETS, frequency_Hz: float = 1.0, progress=None) -> dict:
     """The DACM sensor as the loop's force sensor (basis, samples A and B) against an ideal load
     cell on the same loop: PI force control of a 1 Hz sine between 15 % and 85 % of the sensor's
     range, observer on, 7.25 m lines, Festo valve, a push-only 2 kN/m spring in series with the
     sensor body.  Force MSE against the true contact force; pressure MSE of eq 44."""
-    rows, runs = [], {}
+    plan, info = [], {}
     for name in presets:
         sensor = DacmForceSensor(name)
         k = series_spring(environment_N_m, sensor.stiffness_N_m)
-        env = spring_contact(k, 0.025)
-        amp, off = 0.35 * sensor.range_N, 0.5 * sensor.range_N
+        amp, off = sensor_reference(sensor.range_N)
         for label, fs in (("DACM " + name, sensor), ("load cell (0.02 N noise)", None)):
             s = Setup(controller="pi", observer="force", reference=f"sine:{frequency_Hz:g}Hz", amplitude_N=amp,
-                      offset_N=off, duration_s=duration_s, segments=segments, environment=env, force_sensor=fs)
-            row, ds = _row(s, sensor=name, reading=label, range_N=sensor.range_N,
-                           hysteresis_pct=sensor.sheet.hysteresis_pct, resolution_N=sensor.sheet.resolution_N,
-                           stiffness_N_mm=sensor.stiffness_N_m / 1e3, loop_stiffness_N_mm=k / 1e3)
-            w = ds.sel(time=window(ds, s.ref))
-            row["reading_rms_error_N"] = float(((w.measured_force_N - w.environment_force) ** 2).mean() ** 0.5)
-            rows.append(row)
-            runs[(name, label)] = ds
+                      offset_N=off, duration_s=duration_s, segments=segments, environment=spring_contact(k, 0.025),
+                      force_sensor=fs)
+            plan.append(((name, label), s))
+            info[(name, label)] = dict(sensor=name, reading=label, range_N=sensor.range_N,
+                                       hysteresis_pct=sensor.sheet.hysteresis_pct,
+                                       resolution_N=sensor.sheet.resolution_N,
+                                       stiffness_N_mm=sensor.stiffness_N_m / 1e3, loop_stiffness_N_mm=k / 1e3)
+    done = _run_plan(plan, progress)
+    rows, runs = [], {}
+    for key, s in plan:
+        row, ds = done[key]
+        w = ds.sel(time=window(ds, s.ref))
+        row = {**info[key], **row,
+               "reading_rms_error_N": float(((w.measured_force_N - w.environment_force) ** 2).mean() ** 0.5)}
+        rows.append(row)
+        runs[key] = ds
     return {"rows": rows, "runs": runs}
+
+
+# --- verdicts against the thesis (each with its numeric criterion) -----------------------------------
+
+def _verdict(claim: str, ok: bool, criterion: str, value: str, settled: bool = True) -> dict:
+    return {"claim": claim, "verdict": "agrees" if ok else "disagrees", "criterion": criterion, "value": value,
+            "settled": bool(settled)}
+
+
+def observer_verdicts(res: dict) -> list[dict]:
+    """The thesis' chapter IV claims against the observer study."""
+    ex = {e["experiment"]: e for e in res["experiments"]}
+    out = []
+    for e in res["experiments"]:
+        o, s, v = e["observer"], e["open_loop"], e["valve_ports"]
+        if e["controller"] != "smc":
+            out.append(_verdict(f"{e['figure']}, {e['experiment']}: the observer's error is far below the standard "
+                                "model's and the valve pressures'", o <= 0.5 * min(s, v),
+                                "observer <= 1/2 of each", f"{o:.3g} vs {s:.3g} / {v:.3g} kPa^2", e["settled"]))
+    one, two = ex["pi sine:1Hz"], ex["pi sine:2Hz"]
+    out.append(_verdict("Figures 16-17: the standard-model and valve-port errors are larger at 2 Hz than at 1 Hz",
+                        two["open_loop"] > one["open_loop"] and two["valve_ports"] > one["valve_ports"],
+                        "ordering holds", f"standard {one['open_loop']:.3g} -> {two['open_loop']:.3g}, valve "
+                        f"{one['valve_ports']:.3g} -> {two['valve_ports']:.3g} kPa^2", one["settled"] and two["settled"]))
+    smc = [e for e in res["experiments"] if e["controller"] == "smc"]
+    gains = []
+    for e in smc:
+        o, s = e["observer"], e["open_loop"]
+        out.append(_verdict(f"Figure 26, {e['reference']}: the observer lowers the pressure error against open loop",
+                            o < s, "ordering holds", f"{o:.3g} vs {s:.3g} kPa^2 ({100 * (o / s - 1):+.0f} %)",
+                            e["settled"]))
+        fo, fs = e["force_mse_N2"]["observer"], e["force_mse_N2"]["open_loop"]
+        gains.append(100 * (1 - fo / fs))
+    last = smc[-1]
+    out.append(_verdict("Figure 26: the observer lowers the force MSE by about 25 % at 1.5 Hz", 12.5 <= gains[-1] <= 50,
+                        "within a factor 2 (12.5-50 %)", f"{gains[-1]:+.0f} % ({last['force_mse_N2']['observer']:.3g} "
+                        f"vs {last['force_mse_N2']['open_loop']:.3g} N^2)", last["settled"]))
+    out.append(_verdict("Figure 26: the observer's force gain grows with frequency", gains[-1] > gains[0],
+                        "same trend sign (1.5 Hz gain > 0.5 Hz gain)",
+                        ", ".join(f"{e['reference']} {g:+.0f} %" for e, g in zip(smc, gains)),
+                        all(e["settled"] for e in smc)))
+    sw = res["switch_on"]
+    b, a = sw["before"]["pressure_mse_kPa2"], sw["after"]["pressure_mse_kPa2"]
+    out.append(_verdict("Figure 27: switching the observer on lowers the pressure error", a <= 0.5 * b,
+                        "after <= 1/2 of before", f"{b:.3g} -> {a:.3g} kPa^2 per cycle"))
+    return out
+
+
+def controller_verdicts(res: dict, key: str = "line_model_thesis") -> list[dict]:
+    """The thesis' chapter V claims against the controller study, for the line-model row ``key``
+    (the thesis' controller by default; ``line_model_damped`` for ours)."""
+    get = {(r["line_length_m"], r["reference"]): r for r in res["rows"]}
+    sines = [r for r in ("sine:0.5Hz", "sine:1Hz", "sine:2Hz") if any(k[1] == r for k in get)]
+    long_ = [L for L in (5.0, 7.25, 10.0) if any(k[0] == L for k in get)]
+    name = CH5_HEADINGS[key]
+    ratio = {(L, r): get[(L, r)][key]["mse1_N2"] / get[(L, r)]["smc"]["mse1_N2"] for L in long_ for r in sines}
+    red = {c: 100 * (1 - x) for c, x in ratio.items()}
+    settled = lambda cells: all(get[c][key]["settled"] and get[c]["smc"]["settled"] for c in cells)   # noqa: E731
+    out = []
+    for L in long_:
+        cells = [(L, r) for r in sines]
+        out.append(_verdict(f"{name} has a lower MSE_1 than SMC at {L:g} m", all(ratio[c] < 1 for c in cells),
+                            "ordering holds at every frequency (MSE_1 ratio line model / SMC < 1)",
+                            ", ".join(f"{r} {ratio[(L, r)]:.3g}" for r in sines), settled(cells)))
+    best = max(red.values()) if red else math.nan
+    out.append(_verdict(f"{name}: up to 75 % less force error than SMC for 5-10 m, 0.5-2 Hz", 65 <= best <= 85,
+                        "largest reduction 65-85 %", f"{best:.0f} %" if best > -100 else
+                        f"none: line model / SMC >= {min(ratio.values()):.3g}", settled(list(red))))
+    trend = [0 < red[(L, sines[0])] < red[(L, sines[-1])] or (red[(L, sines[0])] <= 0 < red[(L, sines[-1])])
+             for L in long_]
+    out.append(_verdict(f"{name}: its advantage over SMC grows with the reference frequency (5-10 m)", all(trend),
+                        f"same trend sign: reduction at {sines[-1]} positive and above {sines[0]}'s, every length",
+                        "; ".join(f"{L:g} m ratio " + " -> ".join(f"{ratio[(L, r)]:.3g}" for r in sines) for L in long_),
+                        settled(list(red))))
+    if any(k[0] == 2.0 for k in get):
+        cells = [(2.0, r) for r in sines]
+        out.append(_verdict("SMC is better than the line model at 2 m",
+                            all(get[c]["smc"]["mse1_N2"] < get[c][key]["mse1_N2"] for c in cells), "ordering holds",
+                            ", ".join(f"{c[1]} {get[c]['smc']['mse1_N2']:.3g} vs {get[c][key]['mse1_N2']:.3g} N^2"
+                                      for c in cells), settled(cells)))
+    spread_t4 = max(max(v[1] for v in (TABLE4[L][r] for L in TABLE4)) / min(v[1] for v in (TABLE4[L][r] for L in TABLE4))
+                    for r in sines)
+    for r in sines:
+        cells = [c for c in get if c[1] == r]
+        m2 = [get[c][key]["mse2_N2"] for c in cells]
+        sp = max(m2) / min(m2)
+        out.append(_verdict(f"{name}: MSE_2 stays almost fixed across lengths at {r}", sp <= spread_t4,
+                            f"max/min <= {spread_t4:.2f} (Table 4's own largest spread)",
+                            f"{min(m2):.3g}-{max(m2):.3g} N^2 ({sp:.2f}x)", settled(cells)))
+    cells = [c for c in get if get[c]["thesis_table4"]]
+    ratio = [get[c][key]["mse1_N2"] / get[c]["thesis_table4"]["mse1_N2"] for c in cells]
+    inside = sum(0.5 <= x <= 2 for x in ratio)
+    out.append(_verdict(f"{name}: MSE_1 as in Table 4", inside == len(cells), "within a factor 2 in every cell",
+                        f"{inside} of {len(cells)} cells; ratio to Table 4 {min(ratio):.2g}-{max(ratio):.2g}",
+                        settled(cells)))
+    cells = [c for c in get if c[1] == "sine:2Hz"]
+    pe = [(get[c][key]["line_model_pressure_mse_kPa2"], get[c][key]["pressure_mse_kPa2"]) for c in cells]
+    out.append(_verdict("Figure 37: at 2 Hz the line model estimates the chamber pressures far better than the "
+                        "standard model", all(a <= 0.5 * b for a, b in pe), "line model <= 1/2 of standard",
+                        ", ".join(f"{c[0]:g} m {a:.3g} vs {b:.3g} kPa^2" for c, (a, b) in zip(cells, pe)),
+                        settled(cells)))
+    return out
+
+
+def verdict_lines(verdicts: list[dict]) -> list[str]:
+    return [f"- {v['verdict']} ({v['criterion']}): {v['claim']}: {v['value']}"
+            + ("" if v["settled"] else " [unsettled]") for v in verdicts]
 
 
 # --- tables (markdown, next to the thesis) -----------------------------------------------------------
@@ -373,80 +629,100 @@ def _fmt(x: float) -> str:
     return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else (f"{x:.3g}" if abs(x) < 1e4 else f"{x:.3e}")
 
 
+def _yes(b: bool) -> str:
+    return "yes" if b else "**no**"
+
+
 def observer_tables(res: dict) -> str:
-    t = res["tables"]
-    lines = ["### Chapter IV: pressure estimation, 7.25 m lines (Figures 16-18, eq 44)", "",
-             "| experiment | observer (kPa^2) | standard model (kPa^2) | valve ports (kPa^2) | force MSE (N^2) |",
-             "|---|---|---|---|---|"]
-    for exp in dict.fromkeys(r["experiment"] for r in t["estimation"]):
-        by = {r["observer"]: r for r in t["estimation"] if r["experiment"] == exp}
-        lines.append(f"| {exp} | {_fmt(by['force']['pressure_mse_kPa2'])} | {_fmt(by['standard']['pressure_mse_kPa2'])} | "
-                     f"{_fmt(by['valve']['pressure_mse_kPa2'])} | {_fmt(by['force']['force_mse_N2'])} |")
-    lines += ["", "Thesis (Figures 16-18, plotted only): the observer's error is far below the standard model's and "
-              "the valve pressures', which are comparable to each other and worse at 2 Hz.", "",
-              "### Chapter IV: SMC impedance control, observer vs open-loop estimation (Figure 26)", "",
-              "| z_d | force MSE, observer (N^2) | force MSE, open loop (N^2) | change | pressure MSE, observer | "
-              "pressure MSE, open loop (kPa^2) |", "|---|---|---|---|---|---|"]
-    for exp in dict.fromkeys(r["experiment"] for r in t["smc"]):
-        by = {r["observer"]: r for r in t["smc"] if r["experiment"] == exp}
-        f, s = by["force"], by["standard"]
-        ch = 100 * (f["force_mse_N2"] / s["force_mse_N2"] - 1) if s["force_mse_N2"] > 0 else math.nan
-        lines.append(f"| {exp.split()[-1]} | {_fmt(f['force_mse_N2'])} | {_fmt(s['force_mse_N2'])} | {ch:+.0f} % | "
-                     f"{_fmt(f['pressure_mse_kPa2'])} | {_fmt(s['pressure_mse_kPa2'])} |")
-    sw = t["switch_on"]
-    before = [m for c, m in zip(sw["cycle_start_s"], sw["pressure_mse_kPa2"]) if c + 2 <= sw["on_s"]]
-    after = [m for c, m in zip(sw["cycle_start_s"], sw["pressure_mse_kPa2"]) if c >= sw["on_s"] + 2]
-    fb = [m for c, m in zip(sw["cycle_start_s"], sw["force_mse_N2"]) if c + 2 <= sw["on_s"]]
-    fa = [m for c, m in zip(sw["cycle_start_s"], sw["force_mse_N2"]) if c >= sw["on_s"] + 2]
-    lines += ["", "Thesis (Figure 26, section 4.3.4): the observer lowers both errors; the force gain grows with "
-              "frequency, about 25 % at 1.5 Hz.", "",
-              f"Switch-on (Figure 27, 0.5 Hz, observer on at {sw['on_s']:g} s): pressure MSE per cycle "
-              f"{_fmt(float(np.mean(before)))} -> {_fmt(float(np.mean(after)))} kPa^2, force MSE "
-              f"{_fmt(float(np.mean(fb)))} -> {_fmt(float(np.mean(fa)))} N^2 (means over the cycles before / after)."]
+    h = ESTIMATOR_HEADINGS
+    lines = ["### Chapter IV: pressure estimation, 7.25 m lines (eq 44 MSE, kPa^2; force MSE N^2)", "",
+             f"| experiment | figure | {h['observer']} | {h['open_loop']} | {h['valve_ports']} | force MSE "
+             f"{h['observer']} / open loop / valve ports | settled |", "|---|---|---|---|---|---|---|"]
+    for e in res["experiments"]:
+        f = e["force_mse_N2"]
+        lines.append(f"| {e['experiment']} | {e['figure']} | {_fmt(e['observer'])} | {_fmt(e['open_loop'])} | "
+                     f"{_fmt(e['valve_ports'])} | {_fmt(f['observer'])} / {_fmt(f['open_loop'])} / "
+                     f"{_fmt(f['valve_ports'])} | {_yes(e['settled'])} |")
+    sw = res["switch_on"]
+    lines += ["", f"Switch-on (Figure 27, SMC impedance 0.5 Hz, observer on at {sw['on_s']:g} s): pressure MSE per "
+              f"cycle {_fmt(sw['before']['pressure_mse_kPa2'])} -> {_fmt(sw['after']['pressure_mse_kPa2'])} kPa^2, "
+              f"force MSE {_fmt(sw['before']['force_mse_N2'])} -> {_fmt(sw['after']['force_mse_N2'])} N^2 "
+              f"({sw['note']}).", "", f"Settling rule: {SETTLING_RULE}.", "", "Against the thesis:", ""]
+    lines += verdict_lines(observer_verdicts(res))
     return "\n".join(lines) + "\n"
 
 
 def controller_tables(res: dict) -> str:
     rows = res["rows"]
-    refs = list(dict.fromkeys(r["reference"] for r in rows))
-    lines = ["### Chapter V: line-model controller vs standard SMC (Table 4, Figure 32)", "",
-             "MSE_1 (force, N^2) of SMC | line-model (this simulation); Table 4's line-model MSE_1 / MSE_2 in "
-             "brackets; MSE_2 = virtual-input tracking of the line-model controller.", "",
-             "| length | " + " | ".join(refs) + " |", "|---" * (len(refs) + 1) + "|"]
-    for length in dict.fromkeys(r["line_length_m"] for r in rows):
-        cells = []
-        for ref in refs:
-            by = {r["controller"]: r for r in rows if r["line_length_m"] == length and r["reference"] == ref}
-            lm = by["line-model"]
-            th = TABLE4.get(length, {}).get(ref)
-            cell = f"{_fmt(by['smc']['force_mse_N2'])} \\| {_fmt(lm['force_mse_N2'])} (MSE_2 {_fmt(lm['virtual_input_mse_N2'])})"
-            if th:
-                cell += f" [{th[0]:g} / {th[1]:g}]"
-            cells.append(cell)
-        lines.append(f"| {length:g} m | " + " | ".join(cells) + " |")
-    lines += ["", "Gains per length (section 5.4.2, from the line's dynamics: smc_gains, line_model_gains):", "",
-              "| length | SMC eta (N/s) / phi (N) / lambda (1/s) | line model k_p1 / lambda (1/s) / k_m (1/s) / k_p2 (1/s) |",
-              "|---|---|---|"]
-    for length in dict.fromkeys(r["line_length_m"] for r in rows):
-        g = {r["controller"]: r["gains"] for r in rows if r["line_length_m"] == length}
-        s, m = g["smc"], g["line-model"]
-        lines.append(f"| {length:g} m | {s['eta_N_s']:.4g} / {s['phi_N']:.3g} / {s['lam_per_s']:.3g} | {m['kp1']:.3g} / "
-                     f"{m['lam_per_s']:.3g} / {m['flow_rate_per_s']:.4g} / {m['kp2_per_s']:.3g} |")
-    lines += ["", "### Chapter V: chamber-pressure estimation from the valve pressures (Figure 37)", "",
-              "| length | reference | standard model (kPa^2) | two-volume line model (kPa^2) |", "|---|---|---|---|"]
+    keys = list(CH5_CONTROLLERS)
+    lines = ["### Chapter V: line-model controller vs standard SMC (Table 4, Figure 32), N^2", "",
+             "| length | reference | " + " | ".join(f"MSE_1 {CH5_HEADINGS[k]}" for k in keys)
+             + " | MSE_2 thesis / ours | Table 4 MSE_1 / MSE_2 | settled |", "|---" * (len(keys) + 5) + "|"]
     for r in rows:
-        if r["controller"] == "line-model":
-            lines.append(f"| {r['line_length_m']:g} m | {r['reference']} | {_fmt(r['pressure_mse_kPa2'])} | "
-                         f"{_fmt(r['line_model_pressure_mse_kPa2'])} |")
+        t4 = r["thesis_table4"]
+        lines.append(f"| {r['line_length_m']:g} m | {r['reference']} | "
+                     + " | ".join(_fmt(r[k]["mse1_N2"]) for k in keys)
+                     + f" | {_fmt(r['line_model_thesis']['mse2_N2'])} / {_fmt(r['line_model_damped']['mse2_N2'])} | "
+                     + (f"{t4['mse1_N2']:g} / {t4['mse2_N2']:g}" if t4 else "-") + f" | {_yes(r['settled'])} |")
+    lines += ["", "Gains per length (section 5.4.2 procedure, rules from the line's dynamics: smc_gains, "
+              "line_model_gains):", "",
+              "| length | SMC eta (N/s) / phi (N) / lambda (1/s) | line model k_p1 / lambda (1/s) / k_p2 (1/s) / "
+              "k_i2 (1/s^2) | k_m (1/s), thesis / ours |", "|---|---|---|---|"]
+    for length in dict.fromkeys(r["line_length_m"] for r in rows):
+        r = next(x for x in rows if x["line_length_m"] == length)
+        s, m, d = r["smc"]["gains"], r["line_model_thesis"]["gains"], r["line_model_damped"]["gains"]
+        lines.append(f"| {length:g} m | {s['eta_N_s']:.4g} / {s['phi_N']:.3g} / {s['lam_per_s']:.3g} | {m['kp1']:.3g} / "
+                     f"{m['lam_per_s']:.3g} / {m['kp2_per_s']:.3g} / {m['ki2_per_s2']:.4g} | "
+                     f"{m['flow_rate_per_s']:.3g} / {d['flow_rate_per_s']:.4g} |")
+    lines += ["", "### Chapter V: chamber-pressure estimation from the valve pressures (Figure 37), kPa^2", "",
+              "| length | reference | standard model | line model (thesis controller's run) | line model (ours) |",
+              "|---|---|---|---|---|"]
+    for r in rows:
+        if r["reference"] == "sine:2Hz":
+            lines.append(f"| {r['line_length_m']:g} m | {r['reference']} | {_fmt(r['line_model_thesis']['pressure_mse_kPa2'])} | "
+                         f"{_fmt(r['line_model_thesis']['line_model_pressure_mse_kPa2'])} | "
+                         f"{_fmt(r['line_model_damped']['line_model_pressure_mse_kPa2'])} |")
+    lines += ["", f"Settling rule: {SETTLING_RULE}.", "", "Against the thesis, its controller (primary):", ""]
+    lines += verdict_lines(controller_verdicts(res, "line_model_thesis"))
+    lines += ["", "The same claims for our extension (line-flow damping k_m = 2 w_L):", ""]
+    lines += verdict_lines(controller_verdicts(res, "line_model_damped"))
     return "\n".join(lines) + "\n"
 
 
 def sensor_tables(res: dict) -> str:
     lines = ["### The DACM sensor in the loop (PI force control, observer on, 7.25 m, 1 Hz)", "",
              "| sensor | range (N) | hysteresis (% FS) | resolution (N) | stiffness (N/mm) | loop spring (N/mm) | "
-             "reading | reading RMS error (N) | force MSE (N^2) | pressure MSE (kPa^2) |", "|---" * 10 + "|"]
+             "reading | reading RMS error (N) | force MSE (N^2) | pressure MSE (kPa^2) | settled |", "|---" * 11 + "|"]
     for r in res["rows"]:
         lines.append(f"| {r['sensor']} | {r['range_N']:.3g} | {r['hysteresis_pct']:.3g} | {r['resolution_N']:.2g} | "
                      f"{r['stiffness_N_mm']:.3g} | {r['loop_stiffness_N_mm']:.3g} | {r['reading']} | "
-                     f"{r['reading_rms_error_N']:.3g} | {_fmt(r['force_mse_N2'])} | {_fmt(r['pressure_mse_kPa2'])} |")
+                     f"{r['reading_rms_error_N']:.3g} | {_fmt(r['force_mse_N2'])} | {_fmt(r['pressure_mse_kPa2'])} | "
+                     f"{_yes(r['settled'])} |")
     return "\n".join(lines) + "\n"
+
+
+# --- progress on the console ------------------------------------------------------------------------
+
+@contextmanager
+def console_progress(description: str, quiet: bool = False):
+    """A ``progress(done, total, label)`` callback drawing a rich progress bar on stderr, or
+    None when ``quiet`` or stderr is not a terminal (then nothing is printed)."""
+    if quiet or not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.fields[label]}"), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(description, total=None, label="")
+
+        def update(done: int, total: int, label: str) -> None:
+            bar.update(task, completed=done, total=total, label=label)
+        yield update

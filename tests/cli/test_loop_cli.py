@@ -21,17 +21,20 @@ def test_loop_json_reports_the_mses_and_writes_the_plot(tmp_path, capsys):
     assert 0 < out["force_mse_N2"] < 5.0
     assert math.isfinite(out["pressure_mse_kPa2"]) and out["valve_pressure_mse_kPa2"] < 1.0   # 1 m: ports = chambers
     assert out["window_s"][1] == pytest.approx(2.0, abs=2e-3) and (tmp_path / "loop.png").stat().st_size > 10_000
+    assert isinstance(out["settled"], bool) and out["duration_s"] == 2.0
 
 
 def test_line_model_json_has_the_virtual_input_mse(capsys):
-    assert main(["loop", *FAST, "--controller", "line-model", "--line-length", "7.25", "--reference", "sine:1Hz",
+    assert main(["loop", *FAST, "--controller", "line-model-damped", "--observer", "standard", "--line-length", "7.25",
+                 "--reference", "sine:1Hz",
                  "--amplitude", "10", "--json", "--no-plots"]) == 0
     out = json.loads(capsys.readouterr().out)
     # the inner loop tracks its virtual valve force (measured 0.08 N^2) and the outer loop
     # the force (0.11 N^2), far below the 50 N^2 of doing nothing
     assert out["valve"] == "enfield-lh05" and 0 < out["virtual_input_mse_N2"] < 1.0
     assert out["force_mse_N2"] < 5.0
-    assert set(out["gains"]) == {"lam_per_s", "kp1", "kp2_per_s", "flow_rate_per_s"}     # derived, section 5.4.2
+    assert set(out["gains"]) == {"lam_per_s", "kp1", "kp2_per_s", "ki2_per_s2", "flow_rate_per_s"}   # section 5.4.2
+    assert out["gains"]["flow_rate_per_s"] > 0                 # ours: line-flow damping k_m
     assert out["line_model_pressure_mse_kPa2"] < out["pressure_mse_kPa2"]     # Figure 37's claim
 
 
@@ -75,3 +78,34 @@ def test_dacm_sensor_in_the_loop_reads_the_contact_force():
     err = (w.measured_force_N - w.environment_force)
     assert float(abs(err).max()) < 0.03 * fs.range_N + 0.01
     assert float(((w.desired_force_N - w.environment_force) ** 2).mean()) < 0.5
+
+
+def test_loop_with_a_dacm_sensor_picks_a_reference_within_its_range(capsys):
+    # sample A's range is 3.37 N: the default 24 N reference would be 7 times its range; the
+    # command takes 15-85 % of the range instead and says so on stderr
+    assert main(["loop", *FAST, "--sensor", "sample-a-as-cut", "--json", "--no-plots"]) == 0
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    rng = DacmForceSensor("sample-a-as-cut").range_N
+    assert out["amplitude_N"] == pytest.approx(0.35 * rng) and out["offset_N"] == pytest.approx(0.5 * rng)
+    assert "note: reference within the sensor's" in cap.err and "warning" not in cap.err
+
+
+def test_progress_only_on_a_terminal_and_never_with_quiet(monkeypatch, capsys):
+    from sensor.pneumatic.studies import console_progress
+    with console_progress("study") as progress:          # pytest's stderr is not a terminal
+        assert progress is None
+    monkeypatch.setattr("sys.stderr.isatty", lambda: True)
+    with console_progress("study", quiet=True) as progress:
+        assert progress is None
+    with console_progress("study") as progress:
+        progress(1, 2, "smc sine:1Hz 5 m")
+        progress(2, 2, "smc sine:2Hz 5 m")
+    assert capsys.readouterr().out == ""                 # the bar goes to stderr only
+
+
+def test_default_duration_settles(capsys):
+    # no --duration: 30 s (or 25 periods), long enough for the settling rule on the default loop
+    assert main(["loop", "--line-length", "1", "--segments", "4", "--no-plots", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["duration_s"] == 30.0 and out["settled"] is True and out["window_s"] == [28.0, 30.0]

@@ -161,7 +161,7 @@ def test_observer_in_the_loop_converges_on_an_exact_plant():
     plant = Plant(line_1=DeadVolume(2.0), line_2=DeadVolume(2.0), actuator=Cylinder(leak_kg_s_Pa=0, coulomb_N=0),
                   environment=mass_spring_damper(0.0, 10000.0, 10.0, 0.025))
     model = ObserverModel.from_plant(plant)
-    obs = PressureObserver(model, "force", model.gain_for_rate(10.0))
+    obs = PressureObserver(model, "force", model.gain_for_rate(10.0), initial_Pa=(0.0, 0.0))
     log, last = [], [0.0]
 
     def controller(t, m):
