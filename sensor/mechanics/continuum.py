@@ -45,7 +45,10 @@ class ContinuumResult:
     """One FE solve, reported at ``output_travel_mm`` (the target).
 
     ``hinge_stress_MPa`` maps hinge number (1-12) to the peak von Mises stress (MPa) in its
-    neck and roots (the root fillets included); ``points`` (N, 2), ``triangles`` (M, 3),
+    neck and roots (at the sharp re-entrant corners of the drawn profile this peak is
+    singular: it grows as the mesh is refined; with ``kerf_mm`` > 0 the roots have fillets and
+    it converges); ``hinge_neck_stress_MPa`` the peak over the neck at least one thickness
+    from either root (mesh-converged, the beam theory's nominal stress there); ``points`` (N, 2), ``triangles`` (M, 3),
     ``displacement_mm`` (N, 2) and ``von_mises_MPa`` (M, 3, at each triangle's corners) are
     the fields for pictures. ``size_mm`` is the element size in the thinnest hinge.
     """
@@ -57,6 +60,7 @@ class ContinuumResult:
     input_travel_mm: float
     output_travel_mm: float
     hinge_stress_MPa: dict
+    hinge_neck_stress_MPa: dict
     plane_strain: bool
     nonlinear: bool
     mesh: str
@@ -72,17 +76,16 @@ class ContinuumResult:
 
 # --- geometry and mesh ---------------------------------------------------------------------
 
-def cut_profile_loops(design: Design, kerf_mm: float | None = None):
+def cut_profile_loops(design: Design, kerf_mm: float = 0.0):
     """Outline and holes (``x, y, bulge`` loops, mm) of the profile; with ``kerf_mm`` the
     part a jet of that width leaves (re-entrant corners rounded with radius kerf / 2)."""
     from geometry.cad import face_loops, offset_face, profile_face
 
     face = profile_face(design)
-    if kerf_mm is not None:
-        if not (math.isfinite(kerf_mm) and kerf_mm >= 0):
-            raise SensorInputError(f"kerf_mm = {kerf_mm!r}: must be a non-negative number")
-        if kerf_mm > 0:
-            face = offset_face(offset_face(face, kerf_mm / 2), -kerf_mm / 2)
+    if not (math.isfinite(kerf_mm) and kerf_mm >= 0):
+        raise SensorInputError(f"kerf_mm = {kerf_mm!r}: must be a non-negative number")
+    if kerf_mm > 0:
+        face = offset_face(offset_face(face, kerf_mm / 2), -kerf_mm / 2)
     return face_loops(face)
 
 
@@ -94,7 +97,7 @@ def _size_function(design: Design, n_across: float):
     ab = b - a
     ln2 = np.einsum("ij,ij->i", ab, ab)
     h_min = np.array([p.width for p in hinges]) / n_across
-    reach = np.array([p.width for p in hinges]) + (design.kerf_mm or 0.0)
+    reach = 1.5 * np.array([p.width for p in hinges])
     h_max = 2.0 * min(design.link_width_mm, design.plate_thickness_mm) / n_across
 
     def size(x: float, y: float) -> float:
@@ -130,7 +133,7 @@ def _split_at(loop: np.ndarray, xs: tuple[float, ...], y: float) -> np.ndarray:
 
 
 def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
-                 kerf_mm: float | None = None):
+                 kerf_mm: float = 0.0):
     """Linear triangles (points (N, 2), triangles (M, 3)) of the profile, ``n_across``
     elements across each hinge; vertices at the punch's edges on the top face."""
     import gmsh
@@ -295,11 +298,12 @@ def _corner_von_mises(pb: _Problem, u: np.ndarray, nu: float, plane_strain: bool
     return _von_mises(sig, 0.0, 0.5, nu, plane_strain)
 
 
-def hinge_zones(design: Design, xy: np.ndarray) -> dict[int, np.ndarray]:
-    """Boolean masks over points ``xy`` (..., 2): each hinge's neck and its two roots (the
-    fillets and t + kerf/2 into the bodies it joins)."""
+def hinge_zones(design: Design, xy: np.ndarray, kerf_mm: float = 0.0) -> dict[int, tuple]:
+    """Per hinge, two boolean masks over points ``xy`` (..., 2): the whole hinge (neck and
+    both roots: the fillets and t + kerf/2 into the bodies it joins) and the neck stations
+    at least one thickness t away from either root (outside the roots' stress concentration)."""
     out = {}
-    pad = (design.kerf_mm or 0.0) / 2
+    pad = kerf_mm / 2
     for p in make_parts(make_layout(design)):
         if p.kind != "hinge":
             continue
@@ -308,9 +312,11 @@ def hinge_zones(design: Design, xy: np.ndarray) -> dict[int, np.ndarray]:
         u = (b - a) / L
         rel = xy - a
         s = rel @ u
-        n = rel @ np.array([-u[1], u[0]])
+        n = np.abs(rel @ np.array([-u[1], u[0]]))
         reach = p.width + pad
-        out[p.hinge] = (s > -reach) & (s < L + reach) & (np.abs(n) < p.width / 2 + pad + 1e-6)
+        whole = (s > -reach) & (s < L + reach) & (n < p.width / 2 + pad + 1e-6)
+        neck = (s >= p.width) & (s <= L - p.width) & (n < p.width / 2 + 1e-6)
+        out[p.hinge] = (whole, neck)
     return out
 
 
@@ -363,13 +369,13 @@ def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9,
 
 def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
            nonlinear: bool = False, target_output_mm: float = 1.0, punch_width_mm: float = 0.5,
-           clamp: str = "bottom edge", kerf_mm: float | None = None,
+           clamp: str = "bottom edge", kerf_mm: float = 0.0,
            increments: int = 4) -> ContinuumResult:
     """Solve the continuum model of a design at one mesh level (see the module docstring).
 
     ``mesh`` is a level of :data:`MESH_LEVELS` or a number of elements across each hinge;
-    ``kerf_mm`` rounds the re-entrant corners as a jet of that width does (None: the
-    design's own ``kerf_mm``; 0: the sharp drawn profile). Results are reported at the
+    ``kerf_mm`` > 0 rounds the re-entrant corners as a jet of that width does (0: the
+    drawn profile of the DXF, sharp corners). Results are reported at the
     output travel ``target_output_mm`` (linear: scaled to it).
     """
     n_across = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
@@ -381,7 +387,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     for name, value in (("target_output_mm", target_output_mm), ("punch_width_mm", punch_width_mm)):
         if not (math.isfinite(value) and value > 0):
             raise SensorInputError(f"{name} = {value!r}: must be a positive finite number (mm)")
-    kerf = design.kerf_mm if kerf_mm is None else kerf_mm
+    kerf = kerf_mm
     points, triangles = mesh_profile(design, n_across, punch_width_mm, kerf)
     pb = _problem(design, points, triangles, plane_strain, punch_width_mm, clamp)
     idx, val = _prescribed(pb, 1.0)
@@ -401,12 +407,13 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     out = -float(pb.out_row @ u)
     vm = _corner_von_mises(pb, u, design.material.nu, plane_strain, nonlinear)
     corners = points[triangles]
-    zones = hinge_zones(design, corners)
-    stress = {h: float(vm[z].max()) for h, z in sorted(zones.items()) if z.any()}
+    zones = hinge_zones(design, corners, kerf)
+    stress = {h: float(vm[z].max()) for h, (z, _) in sorted(zones.items())}
+    neck = {h: float(vm[z].max()) for h, (_, z) in sorted(zones.items())}
     return ContinuumResult(
         amplification=out / travel, k_out_N_per_mm=force / out, strain_energy_mJ=energy,
         input_force_N=force, input_travel_mm=travel, output_travel_mm=out,
-        hinge_stress_MPa=stress, plane_strain=plane_strain, nonlinear=nonlinear,
+        hinge_stress_MPa=stress, hinge_neck_stress_MPa=neck, plane_strain=plane_strain, nonlinear=nonlinear,
         mesh=str(mesh), elements_across=n_across, size_mm=_size_function(design, n_across)[1],
         n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,
         displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm)
@@ -451,3 +458,55 @@ def _svk_energy(pb: _Problem, u: np.ndarray) -> float:
         return 0.5 * pb.lam * (E[0, 0] + E[1, 1]) ** 2 + pb.mu * np.einsum("ijab,ijab->ab", E, E)
 
     return float(asm(density, pb.basis, u=pb.basis.interpolate(u))) * pb.depth
+
+
+@dataclass(frozen=True)
+class Convergence:
+    """Richardson extrapolation of a quantity from three meshes refined by a constant ratio.
+
+    ``values`` coarse to fine; ``order`` the observed order of convergence in element size;
+    ``extrapolated`` the mesh-converged estimate; ``error_pct`` the finest mesh's estimated
+    error relative to it (percent).
+    """
+
+    values: tuple[float, float, float]
+    order: float
+    extrapolated: float
+    error_pct: float
+
+
+#: Size ratio between the three meshes of a convergence study.
+REFINEMENT_RATIO = math.sqrt(2.0)
+
+
+def richardson(values, ratio: float = REFINEMENT_RATIO) -> Convergence:
+    """Observed order and extrapolated value from three values on meshes h r^2, h r, h.
+
+    If the differences do not shrink monotonically the order is NaN and the estimate falls
+    back to the finest value with the last difference as its error.
+    """
+    f1, f2, f3 = (float(v) for v in values)
+    d1, d2 = f2 - f1, f3 - f2
+    if d1 != 0 and d2 != 0 and d2 / d1 > 0 and abs(d2) < abs(d1):
+        p = math.log(d1 / d2) / math.log(ratio)
+        ext = f3 + d2 / (ratio**p - 1)
+    else:
+        p, ext = float("nan"), f3 + (0.0 if d2 == 0 else d2)
+    return Convergence((f1, f2, f3), p, ext, 100 * abs(f3 - ext) / abs(ext))
+
+
+CONVERGED = ("amplification", "k_out_N_per_mm", "strain_energy_mJ")
+
+
+def convergence_study(design: Design, mesh: str | float = "default", **options):
+    """Solve at three meshes (``mesh`` and two coarser by sqrt(2) and 2 in element size).
+
+    Returns (results coarse to fine, {quantity: :class:`Convergence`}) for the quantities of
+    :data:`CONVERGED`.
+    """
+    n = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
+    if n is None:
+        raise SensorInputError(f"mesh = {mesh!r}: must be one of {', '.join(MESH_LEVELS)} or a "
+                               "positive number of elements across a hinge")
+    runs = [verify(design, mesh=n / REFINEMENT_RATIO**k, **options) for k in (2, 1, 0)]
+    return runs, {q: richardson([getattr(r, q) for r in runs]) for q in CONVERGED}
