@@ -425,7 +425,7 @@ def _nonlinear_to_target(pb, u_lin, travel_lin, target, increments):
     u = np.zeros_like(u_lin)
     travel = travel_lin
     for k in range(1, increments + 1):
-        u, r = _newton_tl(pb, u + (u_lin / increments if k > 1 else u_lin / increments), travel * k / increments)
+        u, r = _newton_tl(pb, u + u_lin / increments, travel * k / increments)
     history = [(travel, -float(pb.out_row @ u))]
     for _ in range(20):
         t0, o0 = history[-1]
@@ -510,3 +510,91 @@ def convergence_study(design: Design, mesh: str | float = "default", **options):
                                "positive number of elements across a hinge")
     runs = [verify(design, mesh=n / REFINEMENT_RATIO**k, **options) for k in (2, 1, 0)]
     return runs, {q: richardson([getattr(r, q) for r in runs]) for q in CONVERGED}
+
+
+# --- the beam model beside the continuum -------------------------------------------------
+
+#: Output travel (fraction of the target) of the beam model's linear-limit solve.
+LINEAR_LIMIT_FRACTION = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class Verification:
+    """The continuum FE of a design beside its beam model (:func:`verify_design`).
+
+    ``fe`` is the finest of the three meshes; ``convergence`` holds the Richardson study of
+    A, k_out and SE; ``beam`` and ``fe_summary`` are dicts with ``amplification``,
+    ``k_out_N_per_mm``, ``strain_energy_mJ`` (FE: the extrapolated values) and
+    ``hinge_stress_MPa`` (the nominal stress one thickness inside each neck, where both
+    models are mesh- and root-independent) and ``hinge_peak_stress_MPa`` (beam: ROOT_KT x the
+    nominal root stress of a cut root; FE: the peak at the roots, singular at sharp corners);
+    ``errors_pct`` the beam's errors relative to the FE.
+    """
+
+    design: Design
+    fe: ContinuumResult
+    runs: tuple
+    convergence: dict
+    fe_summary: dict
+    beam: dict
+    errors_pct: dict
+
+
+def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict:
+    from geometry.topology import build_beam_model
+    from sensor.mechanics.solver import solve
+    from sensor.mechanics.stress import hinge_stresses
+
+    model = build_beam_model(design)
+    travel = target_output_mm if nonlinear else target_output_mm * LINEAR_LIMIT_FRACTION
+    r = solve(model, target_output_mm=travel)
+    scale = target_output_mm / r.output_travel_mm
+    s = hinge_stresses(model, r)
+    return {"amplification": r.amplification, "k_out_N_per_mm": r.k_out_N_per_mm,
+            "strain_energy_mJ": r.strain_energy_mJ * scale**2,
+            "hinge_stress_MPa": {h: v.neck_MPa * scale for h, v in s.items()},
+            "hinge_peak_stress_MPa": {h: v.peak_MPa * scale for h, v in s.items()}}
+
+
+def verify_design(design: Design, mesh: str | float = "default", plane_strain: bool = False,
+                  nonlinear: bool = False, target_output_mm: float = 1.0,
+                  kerf_mm: float = 0.0, clamp: str = "bottom edge") -> Verification:
+    """Continuum FE (three meshes, Richardson) and beam model of one design, compared at
+    ``target_output_mm`` (linear: both in the linear limit, scaled to it)."""
+    runs, conv = convergence_study(design, mesh, plane_strain=plane_strain, nonlinear=nonlinear,
+                                   target_output_mm=target_output_mm, kerf_mm=kerf_mm, clamp=clamp)
+    fe = runs[-1]
+    fe_summary = {q: conv[q].extrapolated for q in CONVERGED}
+    fe_summary["hinge_stress_MPa"] = dict(fe.hinge_neck_stress_MPa)
+    fe_summary["hinge_peak_stress_MPa"] = dict(fe.hinge_stress_MPa)
+    beam = _beam_side(design, target_output_mm, nonlinear)
+    errors = {q: 100 * (beam[q] / fe_summary[q] - 1) for q in CONVERGED}
+    errors["hinge_stress_MPa"] = {h: 100 * (beam["hinge_stress_MPa"][h] / v - 1)
+                                  for h, v in fe_summary["hinge_stress_MPa"].items()}
+    return Verification(design, fe, tuple(runs), conv, fe_summary, beam, errors)
+
+
+def verification_to_dict(v: Verification) -> dict:
+    """The JSON form of a :class:`Verification` (keys ``fe``, ``beam``, ``errors_pct``,
+    ``convergence``, ``mesh``, ``options``)."""
+    def hinges(d):
+        return {str(h): x for h, x in d.items()}
+
+    def side(d):
+        return {k: hinges(x) if isinstance(x, dict) else x for k, x in d.items()}
+
+    fe = v.fe
+    return {
+        "design": v.design.name,
+        "fe": side(v.fe_summary),
+        "beam": side(v.beam),
+        "errors_pct": side(v.errors_pct),
+        "convergence": {q: {"values": list(c.values), "elements_across": [r.elements_across for r in v.runs],
+                            "order": None if math.isnan(c.order) else c.order,
+                            "extrapolated": c.extrapolated, "error_pct": c.error_pct}
+                        for q, c in v.convergence.items()},
+        "mesh": {"level": fe.mesh, "elements_across_hinge": fe.elements_across,
+                 "hinge_element_size_mm": fe.size_mm, "elements": fe.n_elements, "dofs": fe.n_dofs},
+        "options": {"plane_strain": fe.plane_strain, "nonlinear": fe.nonlinear,
+                    "output_travel_mm": fe.output_travel_mm},
+    }
