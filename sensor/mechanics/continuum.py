@@ -353,14 +353,17 @@ def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9,
     free = np.ones(len(u), bool)
     free[idx] = False
     scale = None
+    prev = np.inf
     for _ in range(max_iter):
         w = pb.basis.interpolate(u)
         r = asm(internal, pb.basis, u=w) * pb.depth
         if scale is None:
             scale = max(np.linalg.norm(r[~free]), 1e-30)
         res = np.linalg.norm(r[free]) / scale
-        if res < tol:
+        # converged, or stalled at round-off (below sqrt(tol) and no longer halving)
+        if res < tol or (res < math.sqrt(tol) and res > 0.5 * prev):
             return u, r
+        prev = res
         K = asm(tangent, pb.basis, u=w) * pb.depth
         u[free] -= spla.spsolve(K[free][:, free].tocsc(), r[free])
     raise ConvergenceError(f"continuum Newton iterations at input travel {travel_mm:.4g} mm: "
