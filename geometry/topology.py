@@ -115,7 +115,11 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     inp = node(lay.input_point)  # first node of the input body: its reference node
     yc = lay.y_top + d.plate_thickness_mm / 2           # the top plate's centre line
     plate_mid = node((0.0, yc))
-    plate_l, plate_r = node((lay.P3[0], yc)), node((-lay.P3[0], yc))
+    # the plate bends up to the top hinges' effective roots, inside it (see the side chains)
+    lean = (lay.P3 - lay.P2) / np.linalg.norm(lay.P3 - lay.P2)
+    k = root_depth_per_thickness
+    plate_l = node((lay.P3[0] + lean[0] * k * d.hinge_thickness_mm[3], yc))
+    plate_r = node((-lay.P3[0] - lean[0] * k * d.hinge_thickness_mm[4], yc))
     top_l, top_r = node(lay.P3), node(lay.P3 * mirror)
     anchor = {tuple(np.round(p, 12)): i for i, p in
               ((base_l, lay.P0), (base_r, lay.P0 * mirror), (knee_lo_l, lay.P1),
@@ -154,7 +158,6 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         ib = anchor[tuple(np.round(b, 12))]
         # elastic roots: each hinge is clamped k t inside the body and inside the link it
         # joins (rigid offsets carry the bodies out to those points)
-        k = root_depth_per_thickness
         ra, rb = node(a - u * k * t1), node(b + u * k * t2)
         j1, j2 = node(chain[1] + u * k * t1), node(chain[2] - u * k * t2)
         members += [("rigid", ia, ra, t1, 0, f"hinge {h1} root"),
