@@ -107,3 +107,11 @@ def test_clamping_the_whole_base_plate_barely_moves_the_answer(sample_b):
 def test_bad_options_are_clear_errors(kwargs, fragment):
     with pytest.raises(SensorInputError, match=fragment.replace("(", r"\(")):
         verify(preset("basis"), **kwargs)
+
+
+def test_richardson_outside_the_asymptotic_range_keeps_the_finest_value():
+    """Differences that do not shrink (order below 0.5): no extrapolation; the error is the
+    last difference over (ratio - 1)."""
+    c = richardson([1.00, 0.99, 0.98])
+    assert math.isnan(c.order) and c.extrapolated == 0.98
+    assert c.error_pct == pytest.approx(100 * 0.01 / (REFINEMENT_RATIO - 1) / 0.98)
