@@ -543,6 +543,7 @@ class Verification:
     """
 
     design: Design
+    mesh: str
     fe: ContinuumResult
     runs: tuple
     convergence: dict
@@ -582,7 +583,7 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     errors = {q: 100 * (beam[q] / fe_summary[q] - 1) for q in CONVERGED}
     errors["hinge_stress_MPa"] = {h: 100 * (beam["hinge_stress_MPa"][h] / v - 1)
                                   for h, v in fe_summary["hinge_stress_MPa"].items()}
-    return Verification(design, fe, tuple(runs), conv, fe_summary, beam, errors)
+    return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, errors)
 
 
 def verification_to_dict(v: Verification) -> dict:
@@ -604,7 +605,7 @@ def verification_to_dict(v: Verification) -> dict:
                             "order": None if math.isnan(c.order) else c.order,
                             "extrapolated": c.extrapolated, "error_pct": c.error_pct}
                         for q, c in v.convergence.items()},
-        "mesh": {"level": fe.mesh, "elements_across_hinge": fe.elements_across,
+        "mesh": {"level": v.mesh, "elements_across_hinge": fe.elements_across,
                  "hinge_element_size_mm": fe.size_mm, "elements": fe.n_elements, "dofs": fe.n_dofs},
         "options": {"plane_strain": fe.plane_strain, "nonlinear": fe.nonlinear,
                     "output_travel_mm": fe.output_travel_mm},
