@@ -32,7 +32,7 @@ import scipy.sparse.linalg as spla
 
 from geometry.layout import make_layout, make_parts
 from geometry.params import Design
-from sensor.errors import ConvergenceError, SensorInputError
+from sensor.errors import ConvergenceError, SensorInputError, SolverError
 
 #: Quadratic elements across each hinge's thickness, per mesh level (the rest of the body
 #: scales with it). Consecutive levels differ by sqrt(2) in size, as Richardson needs.
@@ -171,7 +171,11 @@ def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
         gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
         gmsh.option.setNumber("Mesh.Algorithm", 6)
         gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
-        gmsh.model.mesh.generate(2)
+        try:
+            gmsh.model.mesh.generate(2)
+        except Exception as exc:  # gmsh reports every failure as a plain Exception
+            raise SolverError(f"gmsh could not mesh the profile of {design.name!r} at "
+                              f"{n_across:g} elements across a hinge: {exc}") from None
         tags, xyz, _ = gmsh.model.mesh.getNodes()
         etypes, _, enodes = gmsh.model.mesh.getElements(2)
     finally:

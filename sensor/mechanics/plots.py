@@ -37,7 +37,7 @@ def stress_field_figure(result, design, title: str = "", hinge_stress_MPa: dict 
     for h, (x, y) in centres.items():
         whole.annotate(f"{h}: {hinge_stress_MPa[h]:.0f}", (x, y), xytext=(x + (1.6 if x > 0 else -1.6), y),
                        fontsize=7, color="crimson", ha="center", va="center",
-                       bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+                       bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
     if centres:
         worst = max(centres, key=lambda h: hinge_stress_MPa[h])
         x, y = centres[worst]

@@ -17,7 +17,15 @@ import time
 import gmsh
 import numpy as np
 import scipy.sparse.linalg as spla
-from skfem import Basis, ElementTetP2, ElementTriP2, ElementVector, MeshTet, MeshTri, asm
+from skfem import (
+    Basis,
+    ElementTetP2,
+    ElementTriP2,
+    ElementVector,
+    MeshTet,
+    MeshTri,
+    asm,
+)
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 E, NU, T, L, DEPTH, BLOCK = 2300.0, 0.35, 0.5, 2.82, 5.1, 3.0
@@ -44,7 +52,7 @@ def mesh(dim: int, size: float):
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.model.mesh.generate(dim)
     tags, xyz, _ = gmsh.model.mesh.getNodes()
-    et, _, en = gmsh.model.mesh.getElements(dim)
+    _, _, en = gmsh.model.mesh.getElements(dim)
     gmsh.finalize()
     k = 3 if dim == 2 else 4
     cells = np.asarray(en[0], dtype=np.int64).reshape(-1, k)

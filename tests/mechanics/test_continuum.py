@@ -102,10 +102,10 @@ def test_clamping_the_whole_base_plate_barely_moves_the_answer(sample_b):
 
 
 @pytest.mark.parametrize("kwargs,fragment", [
-    (dict(mesh="medium"), "mesh = 'medium'"),
-    (dict(clamp="top"), "clamp = 'top'"),
-    (dict(target_output_mm=-1.0), "target_output_mm = -1.0"),
-    (dict(kerf_mm=math.nan), "kerf_mm = nan"),
+    ({"mesh": "medium"}, "mesh = 'medium'"),
+    ({"clamp": "top"}, "clamp = 'top'"),
+    ({"target_output_mm": -1.0}, "target_output_mm = -1.0"),
+    ({"kerf_mm": math.nan}, "kerf_mm = nan"),
 ])
 def test_bad_options_are_clear_errors(kwargs, fragment):
     with pytest.raises(SensorInputError, match=fragment.replace("(", r"\(")):
