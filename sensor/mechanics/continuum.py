@@ -173,7 +173,7 @@ def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
         gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
         try:
             gmsh.model.mesh.generate(2)
-        except Exception as exc:  # gmsh reports every failure as a plain Exception
+        except Exception as exc:  # noqa: BLE001 (gmsh reports every failure as a plain Exception)
             raise SolverError(f"gmsh could not mesh the profile of {design.name!r} at "
                               f"{n_across:g} elements across a hinge: {exc}") from None
         tags, xyz, _ = gmsh.model.mesh.getNodes()
