@@ -72,15 +72,17 @@ def test_energy_is_half_force_times_travel(sample_b):
 def test_plane_strain_is_plane_stress_with_transformed_constants():
     """Exact identity of 2D elasticity: plane strain with (E, nu) is plane stress with
     E / (1 - nu^2) and nu / (1 - nu), on the same mesh to round-off (nu = 0.2 keeps the
-    transformed ratio valid). For delrin (nu = 0.35) the bodies are bending-dominated, so
-    plane strain is stiffer by close to 1 / (1 - nu^2) = 1.14."""
+    transformed ratio valid). The bodies are bending-dominated, so plane strain is stiffer
+    than plane stress by close to 1 / (1 - nu^2) (delrin, nu = 0.35: 13.96 % measured at the
+    default mesh, 1 / (1 - nu^2) = 1.139)."""
     d = preset("basis")
     E, nu = d.material.E_MPa, 0.2
-    strain = verify(d.replace(material=Material("a", E, nu)), mesh=2.0, plane_strain=True)
+    same = d.replace(material=Material("a", E, nu))
+    strain = verify(same, mesh=2.0, plane_strain=True)
     stress = verify(d.replace(material=Material("b", E / (1 - nu**2), nu / (1 - nu))), mesh=2.0)
     assert strain.k_out_N_per_mm == pytest.approx(stress.k_out_N_per_mm, rel=1e-9)
-    ratio = verify(d, mesh=2.0, plane_strain=True).k_out_N_per_mm / verify(d, mesh=2.0).k_out_N_per_mm
-    assert ratio == pytest.approx(1 / (1 - d.material.nu**2), rel=0.02)
+    ratio = strain.k_out_N_per_mm / verify(same, mesh=2.0).k_out_N_per_mm
+    assert ratio == pytest.approx(1 / (1 - nu**2), rel=0.01)
 
 
 def test_nonlinear_solve_tends_to_the_linear_one_at_small_travel():
