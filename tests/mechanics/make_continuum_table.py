@@ -1,10 +1,10 @@
 """Regenerate tests/mechanics/data/continuum_table.json: the continuum FE reference of the
 beam model (DESIGN section 14), on the drawn (DXF) profile in plane stress.
 
-For every case: the linear limit from three meshes (6 / sqrt 2, 6 and 12 quadratic
-elements across each hinge... i.e. 6, 8.49, 12) with Richardson extrapolation, and, for the
-cases in NONLINEAR, the geometrically nonlinear solve at 1 mm output travel on the default
-mesh. Takes about half an hour on one core:
+For every case: the linear limit from three meshes (6, 8.49 and 12 quadratic elements
+across each hinge) with Richardson extrapolation and, for the cases in NONLINEAR, the
+geometrically nonlinear solve at 1 mm output travel on the default mesh (6 across). Takes
+about 20 minutes on one core:
 
     python -m tests.mechanics.make_continuum_table [--only NAME ...]
 """
