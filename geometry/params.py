@@ -37,18 +37,26 @@ TABLE7_HINGES: dict[str, tuple[float, ...]] = {
 
 @dataclass(frozen=True)
 class Material:
-    """A linear elastic sheet material: Young's modulus ``E_MPa`` and Poisson's ratio ``nu``."""
+    """A linear elastic sheet material: Young's modulus ``E_MPa``, Poisson's ratio ``nu`` and
+    the allowable stress ``allowable_stress_MPa`` (the largest peak hinge stress at full
+    scale that the stress rule accepts, see :mod:`sensor.mechanics.stress`)."""
 
     name: str
     E_MPa: float
     nu: float
+    allowable_stress_MPa: float = math.inf
 
 
 #: Delrin with the thesis' calibrated E = 2.3 GPa (section 6.2.4); ABS as printed (FDM),
 #: E about 1.8 GPa, the thesis' softer second material (section 6.1.3).
+#: Allowable stresses are half the tensile yield stress, a margin for the creep and fatigue
+#: of a sensor loaded for hours: acetal homopolymer (Delrin) reaches 72 MPa in tension
+#: (J. M. Margolis (ed.), Engineering Plastics Handbook, McGraw-Hill 2006, Table 5.5), so
+#: 36 MPa; moulded impact-grade ABS yields at 42.7 MPa (ASTM D638, guaranteed minimum of the
+#: APAC Infrastructure ABS specification; FDM prints are weaker across layers), so 20 MPa.
 MATERIALS: dict[str, Material] = {
-    "delrin": Material("delrin", 2300.0, 0.35),
-    "abs": Material("abs", 1800.0, 0.35),
+    "delrin": Material("delrin", 2300.0, 0.35, 36.0),
+    "abs": Material("abs", 1800.0, 0.35, 20.0),
 }
 
 
@@ -101,7 +109,7 @@ class Design:
     def is_basis(self) -> bool:
         return self.phi2_deg is None
 
-    def replace(self, **changes) -> "Design":
+    def replace(self, **changes) -> Design:
         """A copy with some fields changed (and validated)."""
         return dataclasses.replace(self, **changes)
 
@@ -145,6 +153,10 @@ def validate(d: Design) -> None:
         raise ParameterError(f"material.E_MPa = {d.material.E_MPa!r}: must be positive")
     if not (0.0 <= d.material.nu < 0.5):
         raise ParameterError(f"material.nu = {d.material.nu!r}: must lie in [0, 0.5)")
+    allow = d.material.allowable_stress_MPa
+    if not (_is_number(allow) and allow > 0):
+        raise ParameterError(f"material.allowable_stress_MPa = {allow!r}: must be a positive number "
+                             "(MPa; inf for no stress limit)")
 
 
 def make_design(phi1_deg: float = 22.0, phi2_deg: float | None = 17.2, hinges: str = "05-03",
@@ -211,10 +223,15 @@ def design_from_dict(data: dict, source: str = "design") -> Design:
         missing = [k for k in ("name", "E_MPa", "nu") if k not in mat]
         if missing:
             raise ParameterError(f"material table lacks {missing[0]!r} (needs name, E_MPa, nu)")
-        for k in ("E_MPa", "nu"):
-            if not _is_number(mat[k]):
+        unknown_m = sorted(set(mat) - {"name", "E_MPa", "nu", "allowable_stress_MPa"})
+        if unknown_m:
+            raise ParameterError(f"material table: unknown key(s) {', '.join(unknown_m)}; known keys: "
+                                 "name, E_MPa, nu, allowable_stress_MPa")
+        for k in ("E_MPa", "nu", "allowable_stress_MPa"):
+            if k in mat and not _is_number(mat[k]):
                 raise ParameterError(f"material {k} = {mat[k]!r}: must be a number")
-        data["material"] = Material(str(mat["name"]), float(mat["E_MPa"]), float(mat["nu"]))
+        data["material"] = Material(str(mat["name"]), float(mat["E_MPa"]), float(mat["nu"]),
+                                    float(mat.get("allowable_stress_MPa", math.inf)))
     if "hinge_thickness_mm" in data:
         t = data["hinge_thickness_mm"]
         if not isinstance(t, (list, tuple)) or not all(_is_number(v) for v in t):

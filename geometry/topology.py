@@ -38,6 +38,15 @@ SCHEMA = "dacm-beam-model/1"
 MEMBER_KINDS = ("hinge", "link", "rigid")
 DOF_NAMES = ("x", "y", "rz")
 
+#: Depth, in hinge thicknesses t, at which a hinge is effectively clamped inside each body or
+#: link it joins. A strip built into a wider elastic body is not clamped at the body's face:
+#: the material round its root turns and shears with it, which adds a root compliance that
+#: scales with t (the same elasticity problem at every root, so one constant for all: the
+#: hinge's bending length grows by 2 k t). k is the beam model's one calibrated parameter:
+#: the least-squares fit of k_out to the continuum FE of 6 presets and 12 sweep cells
+#: (tests/mechanics/data/continuum_table.json; refit by tests/mechanics/test_continuum_table.py).
+ROOT_DEPTH_PER_THICKNESS = 0.35
+
 
 @dataclass(frozen=True, eq=False)
 class BeamModel:
@@ -77,8 +86,12 @@ def _unit(v) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def build_beam_model(design: Design, layout: Layout | None = None, input_guided: bool = True) -> BeamModel:
+def build_beam_model(design: Design, layout: Layout | None = None, input_guided: bool = True,
+                     root_depth_per_thickness: float = ROOT_DEPTH_PER_THICKNESS) -> BeamModel:
     """The beam model of a design, hinges numbered as in Figure 48 (see geometry.params).
+
+    Each hinge member starts ``root_depth_per_thickness`` x its thickness inside the body it
+    joins and ends as far inside the link (see :data:`ROOT_DEPTH_PER_THICKNESS`).
 
     The base plate is clamped. With ``input_guided`` (the default) the input port is guided
     sideways (its x is held), as the thesis' X-stage held it when it pushed the specimens
@@ -102,7 +115,11 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     inp = node(lay.input_point)  # first node of the input body: its reference node
     yc = lay.y_top + d.plate_thickness_mm / 2           # the top plate's centre line
     plate_mid = node((0.0, yc))
-    plate_l, plate_r = node((lay.P3[0], yc)), node((-lay.P3[0], yc))
+    # the plate bends up to the top hinges' effective roots, inside it (see the side chains)
+    lean = (lay.P3 - lay.P2) / np.linalg.norm(lay.P3 - lay.P2)
+    k = root_depth_per_thickness
+    plate_l = node((lay.P3[0] + lean[0] * k * d.hinge_thickness_mm[3], yc))
+    plate_r = node((-lay.P3[0] - lean[0] * k * d.hinge_thickness_mm[4], yc))
     top_l, top_r = node(lay.P3), node(lay.P3 * mirror)
     anchor = {tuple(np.round(p, 12)): i for i, p in
               ((base_l, lay.P0), (base_r, lay.P0 * mirror), (knee_lo_l, lay.P1),
@@ -134,13 +151,20 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
                     ("rigid", out, q_r, d.platform_thickness_mm, 0, "platform")]
 
     for name, (a, b), h1, h2 in side_members(lay):
+        t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         chain = member_chain(a, b, d.hinge_length_mm)
+        u = (b - a) / np.linalg.norm(b - a)
         ia = anchor[tuple(np.round(a, 12))]
         ib = anchor[tuple(np.round(b, 12))]
-        j1, j2 = node(chain[1]), node(chain[2])
-        members += [("hinge", ia, j1, d.hinge_thickness_mm[h1 - 1], h1, f"hinge {h1}"),
+        # elastic roots: each hinge is clamped k t inside the body and inside the link it
+        # joins (rigid offsets carry the bodies out to those points)
+        ra, rb = node(a - u * k * t1), node(b + u * k * t2)
+        j1, j2 = node(chain[1] + u * k * t1), node(chain[2] - u * k * t2)
+        members += [("rigid", ia, ra, t1, 0, f"hinge {h1} root"),
+                    ("hinge", ra, j1, t1, h1, f"hinge {h1}"),
                     ("link", j1, j2, d.link_width_mm, 0, f"{name} link"),
-                    ("hinge", j2, ib, d.hinge_thickness_mm[h2 - 1], h2, f"hinge {h2}")]
+                    ("hinge", j2, rb, t2, h2, f"hinge {h2}"),
+                    ("rigid", ib, rb, t2, 0, f"hinge {h2} root")]
 
     kinds, starts, ends, thick, hinge, names = zip(*members)
     m = len(members)

@@ -115,7 +115,8 @@ def assign_parts(parts: list[Part], points: np.ndarray) -> np.ndarray:
 def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
     """The node or member of the beam model that moves each part.
 
-    A hinge or link follows the compliant member whose end nodes are its axis ends. A rigid
+    A hinge or link follows the compliant member that lies along its axis (a hinge: the one
+    with its hinge number), whatever the member's reach past the axis ends. A rigid
     part follows the model nodes on its outline, which must belong to one rigid body (or
     all be held by supports); a part with no node on it (the fiber post) moves with a rigid
     part it overlaps. Raises :class:`SensorError` when model and layout do not match.
@@ -129,11 +130,13 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
             continue
         for m in flex:
             a, b = (int(v) for v in model.member_nodes[m])
+            if p.hinge and model.hinge_number[m] != p.hinge:
+                continue
             ends = model.nodes[[a, b]]
-            if np.allclose(ends, p.axis, atol=ON_PART_TOL_MM, rtol=0):
-                motions[i] = PartMotion(-1, m, a, b)
-            elif np.allclose(ends[::-1], p.axis, atol=ON_PART_TOL_MM, rtol=0):
-                motions[i] = PartMotion(-1, m, b, a)
+            if not _on_axis(ends, p.axis):
+                continue
+            forward = np.dot(ends[1] - ends[0], p.axis[1] - p.axis[0]) > 0
+            motions[i] = PartMotion(-1, m, a, b) if forward else PartMotion(-1, m, b, a)
         if motions[i] is None:
             raise SensorInputError(f"layout part {p.name!r} matches no compliant member of the beam "
                               "model: model and design do not match")
@@ -208,9 +211,36 @@ def displacement_field(points: np.ndarray, parts: list[Part], motions: list[Part
         if mo.member < 0:
             u[sel] = _rigid(points[sel], X0[mo.node], x[mo.node] - X0[mo.node], float(th[mo.node]))
         else:
+            # a hinge member reaches past its drawn neck into the bodies it joins (see
+            # geometry.topology.ROOT_DEPTH_PER_THICKNESS): its end states are carried rigidly
+            # back to the part's own axis ends, so neighbouring parts meet exactly
             a, b = mo.start, mo.end
-            u[sel] = _member(points[sel], X0[a], X0[b], x[a], x[b], float(th[a]), float(th[b]))
+            A, B = _inner_ends(parts[i].axis, X0[a], X0[b])
+            xa = A + _rigid(A[None], X0[a], x[a] - X0[a], float(th[a]))[0]
+            xb = B + _rigid(B[None], X0[b], x[b] - X0[b], float(th[b]))[0]
+            u[sel] = _member(points[sel], A, B, xa, xb, float(th[a]), float(th[b]))
     return u
+
+
+def _inner_ends(axis: np.ndarray, Xa: np.ndarray, Xb: np.ndarray):
+    """The member's ends (Xa, Xb), each moved back onto the part's axis end where the
+    member reaches past it."""
+    A, B = axis
+    u = (B - A) / np.linalg.norm(B - A)
+    return (A if (Xa - A) @ u < 0 else Xa), (B if (Xb - B) @ u > 0 else Xb)
+
+
+def _on_axis(ends: np.ndarray, axis: np.ndarray) -> bool:
+    """Whether a member's end points (2, 2) lie on a part's axis line and the two spans
+    overlap (a member may reach past its part's ends, or stop short of them)."""
+    A, B = axis
+    L = float(np.linalg.norm(B - A))
+    u = (B - A) / L
+    n = np.array([-u[1], u[0]])
+    if np.abs((ends - A) @ n).max() > ON_PART_TOL_MM:
+        return False
+    s = np.sort((ends - A) @ u)
+    return s[0] < L / 2 < s[1] and (s[0] + s[1]) / 2 > 0 and (s[0] + s[1]) / 2 < L
 
 
 def member_strain_energy(model: BeamModel, result: SolveResult) -> np.ndarray:

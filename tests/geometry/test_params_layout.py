@@ -169,13 +169,17 @@ def _rigid_linkage_amplification(design):
             c[1, 4] = 1.0
         return c, k
 
+    # a hinge's outer node sits inside the body it joins, rigidly tied to the body's node on
+    # its face (geometry.topology.ROOT_DEPTH_PER_THICKNESS): classify by that face node
+    face = {int(e): int(s) for k, (s, e), name in zip(m.member_kind, m.member_nodes, m.member_name)
+            if k == "rigid" and name.endswith("root")}
     for j, li in enumerate(links):
         a, b = m.member_nodes[li]
         o = 5 + 3 * j
         for hinge_end, link_end in ((m.member_nodes[li - 1], a), (m.member_nodes[li + 1], b)):
             outer = [n for n in hinge_end if n != link_end][0]
             pivot = (m.nodes[outer] + m.nodes[link_end]) / 2
-            body = body_of(m.nodes[outer])
+            body = body_of(m.nodes[face.get(int(outer), int(outer))])
             cb, kb = body_velocity(body, pivot)
             cl = np.zeros((2, n_unk))
             cl[0, o] = cl[1, o + 1] = 1.0

@@ -1,0 +1,616 @@
+"""Continuum verification: a 2D finite-element model of a design's cut profile (DESIGN
+section 14).
+
+The reference for the beam model (:mod:`sensor.mechanics.solver`): the profile the water
+jet leaves (the same outline and holes as ``dacm export --dxf``; with ``kerf_mm`` the
+re-entrant corners carry the jet's radius, kerf / 2, as a cut part does), meshed with gmsh
+into triangles refined in the hinges and solved with scikit-fem using quadratic (6-node)
+triangles, in plane stress (default) or plane strain.
+
+Boundary conditions follow the beam model (:func:`geometry.topology.build_beam_model`):
+
+* the base plate's bottom edge is clamped (the body stands on it); ``clamp="base plate"``
+  clamps the whole base plate instead;
+* the input is a rigid punch ``punch_width_mm`` wide at the top plate's centre, pushed
+  straight down with no sideways motion or rotation (guided, as the X-stage did);
+* the output is the mirror's vertical travel (platform underside centre; the top plate's
+  underside for the basis) relative to the fiber tip on the base.
+
+Linear by default; ``nonlinear=True`` solves the geometrically nonlinear problem (total
+Lagrangian, St Venant-Kirchhoff: small strains, large rotations) by Newton's method in input
+travel increments until the output reaches ``target_output_mm``. Units: mm, N, MPa, mJ.
+Needs gmsh and CadQuery (imported when called).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from geometry.layout import make_layout, make_parts
+from geometry.params import Design
+from sensor.errors import ConvergenceError, SensorInputError, SolverError
+
+#: Quadratic elements across each hinge's thickness, per mesh level (the rest of the body
+#: scales with it). Consecutive levels differ by sqrt(2) in size, as Richardson needs.
+MESH_LEVELS = {"coarse": 3.0, "default": 6.0, "fine": 12.0}
+CLAMPS = ("bottom edge", "base plate")
+
+
+@dataclass(frozen=True, eq=False)
+class ContinuumResult:
+    """One FE solve, reported at ``output_travel_mm`` (the target).
+
+    ``hinge_stress_MPa`` maps hinge number (1-12) to the peak von Mises stress (MPa) in its
+    neck and roots (at the sharp re-entrant corners of the drawn profile this peak is
+    singular: it grows as the mesh is refined; with ``kerf_mm`` > 0 the roots have fillets and
+    it converges); ``hinge_neck_stress_MPa`` the peak over the neck at least one thickness
+    from either root (mesh-converged, the beam theory's nominal stress there); ``points`` (N, 2), ``triangles`` (M, 3),
+    ``displacement_mm`` (N, 2) and ``von_mises_MPa`` (M, 3, at each triangle's corners) are
+    the fields for pictures. ``size_mm`` is the element size in the thinnest hinge.
+    """
+
+    amplification: float
+    k_out_N_per_mm: float
+    strain_energy_mJ: float
+    input_force_N: float
+    input_travel_mm: float
+    output_travel_mm: float
+    hinge_stress_MPa: dict
+    hinge_neck_stress_MPa: dict
+    plane_strain: bool
+    nonlinear: bool
+    mesh: str
+    elements_across: float
+    size_mm: float
+    n_elements: int
+    n_dofs: int
+    points: np.ndarray
+    triangles: np.ndarray
+    displacement_mm: np.ndarray
+    von_mises_MPa: np.ndarray
+
+
+# --- geometry and mesh ---------------------------------------------------------------------
+
+def cut_profile_loops(design: Design, kerf_mm: float = 0.0):
+    """Outline and holes (``x, y, bulge`` loops, mm) of the profile; with ``kerf_mm`` the
+    part a jet of that width leaves (re-entrant corners rounded with radius kerf / 2)."""
+    from geometry.cad import face_loops, offset_face, profile_face
+
+    face = profile_face(design)
+    if not (math.isfinite(kerf_mm) and kerf_mm >= 0):
+        raise SensorInputError(f"kerf_mm = {kerf_mm!r}: must be a non-negative number")
+    if kerf_mm > 0:
+        face = offset_face(offset_face(face, kerf_mm / 2), -kerf_mm / 2)
+    return face_loops(face)
+
+
+def _size_function(design: Design, n_across: float):
+    """Target element size (mm) at a point: t / n_across in each hinge, growing away from it."""
+    hinges = [p for p in make_parts(make_layout(design)) if p.kind == "hinge"]
+    a = np.array([p.axis[0] for p in hinges])
+    b = np.array([p.axis[1] for p in hinges])
+    ab = b - a
+    ln2 = np.einsum("ij,ij->i", ab, ab)
+    h_min = np.array([p.width for p in hinges]) / n_across
+    reach = 1.5 * np.array([p.width for p in hinges])
+    h_max = 2.0 * min(design.link_width_mm, design.plate_thickness_mm) / n_across
+
+    def size(x: float, y: float) -> float:
+        p = np.array([x, y])
+        s = np.clip(np.einsum("ij,ij->i", p - a, ab) / ln2, 0.0, 1.0)
+        dist = np.linalg.norm(a + s[:, None] * ab - p, axis=1)
+        h = h_min + 0.5 * np.maximum(dist - reach, 0.0)
+        return float(min(h.min(), h_max))
+
+    return size, float(h_min.min())
+
+
+def _arc_centre(s, e, bulge):
+    theta = 4.0 * math.atan(bulge)
+    c = np.linalg.norm(e - s)
+    r = c / (2.0 * math.sin(abs(theta) / 2.0))
+    normal = np.array([-(e - s)[1], (e - s)[0]]) / c
+    return (s + e) / 2 + normal * math.copysign(r * math.cos(theta / 2.0), bulge)
+
+
+def _split_at(loop: np.ndarray, xs: tuple[float, ...], y: float) -> np.ndarray:
+    """Insert vertices at (x, y) for each x lying on a straight horizontal edge of the loop."""
+    out = []
+    n = len(loop)
+    for i in range(n):
+        s, e, bulge = loop[i, :2], loop[(i + 1) % n, :2], loop[i, 2]
+        out.append(loop[i])
+        if bulge == 0.0 and abs(s[1] - y) < 1e-9 and abs(e[1] - y) < 1e-9:
+            inner = [x for x in xs if min(s[0], e[0]) + 1e-9 < x < max(s[0], e[0]) - 1e-9]
+            for x in sorted(inner, reverse=bool(e[0] < s[0])):
+                out.append(np.array([x, y, 0.0]))
+    return np.array(out)
+
+
+def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
+                 kerf_mm: float = 0.0):
+    """Linear triangles (points (N, 2), triangles (M, 3)) of the profile, ``n_across``
+    elements across each hinge; vertices at the punch's edges on the top face."""
+    import gmsh
+
+    outline, holes = cut_profile_loops(design, kerf_mm)
+    outline = _split_at(outline, (-punch_width_mm / 2, punch_width_mm / 2), design.height_mm)
+    size, _ = _size_function(design, n_across)
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("profile")
+        geo = gmsh.model.geo
+        loops = []
+        for loop in [outline] + list(holes):
+            pts = [geo.addPoint(float(x), float(y), 0.0) for x, y, _ in loop]
+            curves = []
+            for i, (x, y, bulge) in enumerate(loop):
+                j = (i + 1) % len(loop)
+                if bulge == 0.0:
+                    curves.append(geo.addLine(pts[i], pts[j]))
+                else:
+                    c = _arc_centre(loop[i, :2], loop[j, :2], bulge)
+                    ct = geo.addPoint(float(c[0]), float(c[1]), 0.0)
+                    if abs(4 * math.atan(bulge)) > math.pi - 1e-6:  # split a half circle or more
+                        mid = c + np.linalg.norm(loop[i, :2] - c) * _unit_mid(loop[i, :2], loop[j, :2], c, bulge)
+                        pm = geo.addPoint(float(mid[0]), float(mid[1]), 0.0)
+                        curves += [geo.addCircleArc(pts[i], ct, pm), geo.addCircleArc(pm, ct, pts[j])]
+                    else:
+                        curves.append(geo.addCircleArc(pts[i], ct, pts[j]))
+            loops.append(geo.addCurveLoop(curves))
+        geo.addPlaneSurface(loops)
+        geo.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 6)
+        gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
+        try:
+            gmsh.model.mesh.generate(2)
+        except Exception as exc:  # noqa: BLE001 (gmsh reports every failure as a plain Exception)
+            raise SolverError(f"gmsh could not mesh the profile of {design.name!r} at "
+                              f"{n_across:g} elements across a hinge: {exc}") from None
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        etypes, _, enodes = gmsh.model.mesh.getElements(2)
+    finally:
+        gmsh.finalize()
+    tri = np.asarray(enodes[list(etypes).index(2)], dtype=np.int64).reshape(-1, 3)
+    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+    index[tags.astype(np.int64)] = np.arange(len(tags))
+    points = xyz.reshape(-1, 3)[:, :2]
+    tri = index[tri]
+    used = np.unique(tri)
+    remap = np.zeros(len(points), dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return points[used], remap[tri]
+
+
+def _unit_mid(s, e, c, bulge):
+    """Unit vector from the centre c to the middle of the arc s -> e of the given bulge."""
+    a0 = math.atan2(*(s - c)[::-1])
+    a = a0 + 2.0 * math.atan(bulge)
+    return np.array([math.cos(a), math.sin(a)])
+
+
+# --- the FE model ------------------------------------------------------------------------
+
+def _lame(E: float, nu: float, plane_strain: bool) -> tuple[float, float]:
+    """2D Lame constants (MPa): plane strain as is, plane stress with lambda* = 2 lam mu / (lam + 2 mu)."""
+    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    mu = E / (2 * (1 + nu))
+    if not plane_strain:
+        lam = 2 * lam * mu / (lam + 2 * mu)
+    return lam, mu
+
+
+def _von_mises(eps: np.ndarray, lam: float, mu: float, nu: float, plane_strain: bool) -> np.ndarray:
+    """Von Mises stress (MPa) from in-plane strains eps (2, 2, ...)."""
+    tr = eps[0, 0] + eps[1, 1]
+    sxx = lam * tr + 2 * mu * eps[0, 0]
+    syy = lam * tr + 2 * mu * eps[1, 1]
+    sxy = 2 * mu * eps[0, 1]
+    szz = nu * (sxx + syy) if plane_strain else 0.0
+    return np.sqrt(0.5 * ((sxx - syy) ** 2 + (syy - szz) ** 2 + (szz - sxx) ** 2) + 3 * sxy**2)
+
+
+@dataclass(frozen=True, eq=False)
+class _Problem:
+    """The discrete problem of one mesh: basis, linear stiffness and the port dofs."""
+
+    basis: object
+    K: object                # linear stiffness (N/mm), sheet thickness included
+    fixed: np.ndarray        # clamped dofs
+    punch_y: np.ndarray      # punch dofs pushed down
+    punch_x: np.ndarray      # punch dofs held sideways
+    out_row: object          # (N,) sparse row: mirror travel minus fiber-tip travel, up positive
+    lam: float
+    mu: float
+    depth: float
+
+
+def _problem(design: Design, points, triangles, plane_strain, punch_width_mm, clamp):
+    from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
+    from skfem.models.elasticity import linear_elasticity
+
+    mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(triangles.T))
+    basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
+    lam, mu = _lame(design.material.E_MPa, design.material.nu, plane_strain)
+    K = asm(linear_elasticity(lam, mu), basis) * design.sheet_thickness_mm
+    lay = make_layout(design)
+    tol = 1e-7
+    if clamp == "bottom edge":
+        fixed = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] < tol, boundaries_only=True)).all()
+    else:
+        fixed = basis.get_dofs(elements=mesh.elements_satisfying(lambda x: x[1] < lay.y_base)).all()
+    punch = mesh.facets_satisfying(
+        lambda x: (x[1] > design.height_mm - tol) & (np.abs(x[0]) < punch_width_mm / 2 + tol),
+        boundaries_only=True)
+    pd = basis.get_dofs(punch)
+    # probes just inside the body: rows 0-1 are u_x, rows 2-3 u_y of (mirror, fiber tip)
+    P = basis.probes(np.array([[0.0, 0.0], [lay.output_point[1] + 1e-6, lay.post_top - 1e-6]])).tocsr()
+    return _Problem(basis, K, fixed, pd.all("u^2"), pd.all("u^1"), (P[2] - P[3]).toarray().ravel(),
+                    lam, mu, design.sheet_thickness_mm)
+
+
+def _prescribed(pb: _Problem, travel_mm: float):
+    """Dof indices and values of the Dirichlet conditions at an input travel (down)."""
+    idx = np.concatenate([pb.fixed, pb.punch_x, pb.punch_y])
+    val = np.concatenate([np.zeros(len(pb.fixed) + len(pb.punch_x)), np.full(len(pb.punch_y), -travel_mm)])
+    return idx, val
+
+
+def _solve_dirichlet(K, rhs, idx, val, u0=None):
+    """Solve K u = rhs with u[idx] = val (later entries win); returns u."""
+    n = K.shape[0]
+    u = np.zeros(n) if u0 is None else u0.copy()
+    u[idx] = val
+    free = np.ones(n, bool)
+    free[idx] = False
+    Kff = K[free][:, free].tocsc()
+    u[free] = spla.spsolve(Kff, (rhs - K @ u)[free])
+    return u
+
+
+def _corner_gradients(pb: _Problem, u: np.ndarray) -> np.ndarray:
+    """Displacement gradients (2, 2, M, 3) at each triangle's three corners."""
+    from skfem import Basis
+
+    corners = (np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]), np.full(3, 1.0 / 6.0))
+    vb = Basis(pb.basis.mesh, pb.basis.elem, quadrature=corners)
+    return np.asarray(vb.interpolate(u).grad)
+
+
+def _corner_von_mises(pb: _Problem, u: np.ndarray, nu: float, plane_strain: bool, nonlinear: bool):
+    """Von Mises stress (MPa, (M, 3)) at triangle corners: Cauchy stress of the SVK law
+    (the linear law when not ``nonlinear``)."""
+    G = _corner_gradients(pb, u)
+    if not nonlinear:
+        eps = 0.5 * (G + G.transpose(1, 0, 2, 3))
+        return _von_mises(eps, pb.lam, pb.mu, nu, plane_strain)
+    F = G + np.eye(2)[:, :, None, None]
+    E = 0.5 * (np.einsum("kiab,kjab->ijab", F, F) - np.eye(2)[:, :, None, None])
+    S = pb.lam * (E[0, 0] + E[1, 1]) * np.eye(2)[:, :, None, None] + 2 * pb.mu * E
+    J = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+    sig = np.einsum("ikab,klab,jlab->ijab", F, S, F) / J
+    # the same von Mises formula, written for a stress: pass it as a "strain" with lam = 0, 2 mu = 1
+    return _von_mises(sig, 0.0, 0.5, nu, plane_strain)
+
+
+def hinge_zones(design: Design, xy: np.ndarray, kerf_mm: float = 0.0) -> dict[int, tuple]:
+    """Per hinge, two boolean masks over points ``xy`` (..., 2): the whole hinge (neck and
+    both roots: the fillets and t + kerf/2 into the bodies it joins) and the neck stations
+    at least one thickness t away from either root (outside the roots' stress concentration)."""
+    out = {}
+    pad = kerf_mm / 2
+    for p in make_parts(make_layout(design)):
+        if p.kind != "hinge":
+            continue
+        a, b = p.axis
+        L = float(np.linalg.norm(b - a))
+        u = (b - a) / L
+        rel = xy - a
+        s = rel @ u
+        n = np.abs(rel @ np.array([-u[1], u[0]]))
+        reach = p.width + pad
+        whole = (s > -reach) & (s < L + reach) & (n < p.width / 2 + pad + 1e-6)
+        neck = (s >= p.width) & (s <= L - p.width) & (n < p.width / 2 + 1e-6)
+        out[p.hinge] = (whole, neck)
+    return out
+
+
+def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9, max_iter: int = 25):
+    """Total-Lagrangian equilibrium (St Venant-Kirchhoff) at an input travel, from u."""
+    from skfem import BilinearForm, LinearForm, asm
+
+    I = np.eye(2)[:, :, None, None]
+    lam, mu = pb.lam, pb.mu
+
+    def kinematics(w):
+        F = I + w["u"].grad
+        E = 0.5 * (np.einsum("kiab,kjab->ijab", F, F) - I)
+        S = lam * (E[0, 0] + E[1, 1]) * I + 2 * mu * E
+        return F, S
+
+    @BilinearForm
+    def tangent(du, v, w):
+        F, S = kinematics(w)
+        gdu = du.grad
+        dE = 0.5 * (np.einsum("kiab,kjab->ijab", F, gdu) + np.einsum("kiab,kjab->ijab", gdu, F))
+        dS = lam * (dE[0, 0] + dE[1, 1]) * I + 2 * mu * dE
+        T = np.einsum("ikab,kjab->ijab", gdu, S) + np.einsum("ikab,kjab->ijab", F, dS)
+        return np.einsum("ijab,ijab->ab", T, v.grad)
+
+    @LinearForm
+    def internal(v, w):
+        F, S = kinematics(w)
+        return np.einsum("ijab,ijab->ab", np.einsum("ikab,kjab->ijab", F, S), v.grad)
+
+    idx, val = _prescribed(pb, travel_mm)
+    u = u.copy()
+    u[idx] = val
+    free = np.ones(len(u), bool)
+    free[idx] = False
+    scale = None
+    prev = np.inf
+    for _ in range(max_iter):
+        w = pb.basis.interpolate(u)
+        r = asm(internal, pb.basis, u=w) * pb.depth
+        if scale is None:
+            scale = max(np.linalg.norm(r[~free]), 1e-30)
+        res = np.linalg.norm(r[free]) / scale
+        # converged, or stalled at round-off (below sqrt(tol) and no longer halving)
+        if res < tol or (res < math.sqrt(tol) and res > 0.5 * prev):
+            return u, r
+        prev = res
+        K = asm(tangent, pb.basis, u=w) * pb.depth
+        u[free] -= spla.spsolve(K[free][:, free].tocsc(), r[free])
+    raise ConvergenceError(f"continuum Newton iterations at input travel {travel_mm:.4g} mm: "
+                           f"residual {res:.2e} did not fall below {tol:g}")
+
+
+def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
+           nonlinear: bool = False, target_output_mm: float = 1.0, punch_width_mm: float = 0.5,
+           clamp: str = "bottom edge", kerf_mm: float = 0.0,
+           increments: int = 4) -> ContinuumResult:
+    """Solve the continuum model of a design at one mesh level (see the module docstring).
+
+    ``mesh`` is a level of :data:`MESH_LEVELS` or a number of elements across each hinge;
+    ``kerf_mm`` > 0 rounds the re-entrant corners as a jet of that width does (0: the
+    drawn profile of the DXF, sharp corners). Results are reported at the
+    output travel ``target_output_mm`` (linear: scaled to it).
+    """
+    n_across = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
+    if n_across is None or not (math.isfinite(n_across) and n_across > 0):
+        raise SensorInputError(f"mesh = {mesh!r}: must be one of {', '.join(MESH_LEVELS)} or a "
+                               "positive number of elements across a hinge")
+    if clamp not in CLAMPS:
+        raise SensorInputError(f"clamp = {clamp!r}: must be one of {', '.join(CLAMPS)}")
+    for name, value in (("target_output_mm", target_output_mm), ("punch_width_mm", punch_width_mm)):
+        if not (math.isfinite(value) and value > 0):
+            raise SensorInputError(f"{name} = {value!r}: must be a positive finite number (mm)")
+    kerf = kerf_mm
+    points, triangles = mesh_profile(design, n_across, punch_width_mm, kerf)
+    pb = _problem(design, points, triangles, plane_strain, punch_width_mm, clamp)
+    idx, val = _prescribed(pb, 1.0)
+    u = _solve_dirichlet(pb.K, np.zeros(pb.K.shape[0]), idx, val)
+    out_lin = -float(pb.out_row @ u)
+    if not out_lin > 0:
+        raise SensorInputError(f"design {design.name!r}: the mirror moves up ({out_lin:.3g} mm per mm "
+                               "of input): no output travel to report")
+    travel = target_output_mm / out_lin
+    if not nonlinear:
+        u = u * travel
+        force = -float((pb.K @ u)[pb.punch_y].sum())
+        energy = 0.5 * float(u @ (pb.K @ u))
+    else:
+        u, travel, force = _nonlinear_to_target(pb, u * travel, travel, target_output_mm, increments)
+        energy = _svk_energy(pb, u)
+    out = -float(pb.out_row @ u)
+    vm = _corner_von_mises(pb, u, design.material.nu, plane_strain, nonlinear)
+    corners = points[triangles]
+    zones = hinge_zones(design, corners, kerf)
+    stress = {h: float(vm[z].max()) for h, (z, _) in sorted(zones.items())}
+    neck = {h: float(vm[z].max()) for h, (_, z) in sorted(zones.items())}
+    return ContinuumResult(
+        amplification=out / travel, k_out_N_per_mm=force / out, strain_energy_mJ=energy,
+        input_force_N=force, input_travel_mm=travel, output_travel_mm=out,
+        hinge_stress_MPa=stress, hinge_neck_stress_MPa=neck, plane_strain=plane_strain, nonlinear=nonlinear,
+        mesh=str(mesh), elements_across=n_across, size_mm=_size_function(design, n_across)[1],
+        n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,
+        displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm)
+
+
+def _nonlinear_to_target(pb, u_lin, travel_lin, target, increments):
+    """Newton in input-travel increments, then secant steps on the travel until the output
+    travel equals ``target`` (relative 1e-9). Returns (u, input travel, input force)."""
+    u = np.zeros_like(u_lin)
+    travel = travel_lin
+    for k in range(1, increments + 1):
+        u, r = _newton_tl(pb, u + u_lin / increments, travel * k / increments)
+    history = [(travel, -float(pb.out_row @ u))]
+    for _ in range(20):
+        t0, o0 = history[-1]
+        if abs(o0 - target) < 1e-9 * target:
+            break
+        if len(history) == 1:
+            t1 = t0 * target / o0
+        else:
+            (ta, oa), (tb, ob) = history[-2:]
+            t1 = tb + (target - ob) * (tb - ta) / (ob - oa)
+        u, r = _newton_tl(pb, u * (t1 / t0), t1)
+        history.append((t1, -float(pb.out_row @ u)))
+    else:
+        raise ConvergenceError(f"continuum: output travel {history[-1][1]:.6g} mm did not reach the "
+                               f"target {target:g} mm")
+    force = -float(r[pb.punch_y].sum())
+    return u, history[-1][0], force
+
+
+def _svk_energy(pb: _Problem, u: np.ndarray) -> float:
+    """Strain energy (mJ) of the St Venant-Kirchhoff law: integral of lam/2 tr(E)^2 + mu E:E."""
+    from skfem import Functional, asm
+
+    I = np.eye(2)[:, :, None, None]
+
+    @Functional
+    def density(w):
+        F = I + w["u"].grad
+        E = 0.5 * (np.einsum("kiab,kjab->ijab", F, F) - I)
+        return 0.5 * pb.lam * (E[0, 0] + E[1, 1]) ** 2 + pb.mu * np.einsum("ijab,ijab->ab", E, E)
+
+    return float(asm(density, pb.basis, u=pb.basis.interpolate(u))) * pb.depth
+
+
+@dataclass(frozen=True)
+class Convergence:
+    """Richardson extrapolation of a quantity from three meshes refined by a constant ratio.
+
+    ``values`` coarse to fine; ``order`` the observed order of convergence in element size;
+    ``extrapolated`` the mesh-converged estimate; ``error_pct`` the finest mesh's estimated
+    error relative to it (percent).
+    """
+
+    values: tuple[float, float, float]
+    order: float
+    extrapolated: float
+    error_pct: float
+
+
+#: Size ratio between the three meshes of a convergence study.
+REFINEMENT_RATIO = math.sqrt(2.0)
+
+
+def richardson(values, ratio: float = REFINEMENT_RATIO) -> Convergence:
+    """Observed order and extrapolated value from three values on meshes h r^2, h r, h.
+
+    Outside the asymptotic range (differences not shrinking monotonically, or an observed
+    order outside ORDER_RANGE) the order is NaN, the estimate is the finest value and its
+    error the last difference times 1 / (ratio - 1) (what first order would leave).
+    """
+    f1, f2, f3 = (float(v) for v in values)
+    d1, d2 = f2 - f1, f3 - f2
+    p = float("nan")
+    if d1 != 0 and d2 != 0 and d2 / d1 > 0 and abs(d2) < abs(d1):
+        p = math.log(d1 / d2) / math.log(ratio)
+    if ORDER_RANGE[0] <= p <= ORDER_RANGE[1]:
+        ext = f3 + d2 / (ratio**p - 1)
+        return Convergence((f1, f2, f3), p, ext, 100 * abs(f3 - ext) / abs(ext))
+    return Convergence((f1, f2, f3), float("nan"), f3, 100 * abs(d2) / (ratio - 1) / abs(f3))
+
+
+#: Observed orders accepted for extrapolation: quadratic elements converge in energy at
+#: order 2 k_s with k_s the corner singularity's exponent (0.54 at a re-entrant right-angle
+#: corner, so about 1.1), up to 4 on smooth solutions.
+ORDER_RANGE = (0.5, 4.0)
+
+
+CONVERGED = ("amplification", "k_out_N_per_mm", "strain_energy_mJ")
+
+
+def convergence_study(design: Design, mesh: str | float = "default", **options):
+    """Solve at three meshes (``mesh`` and two coarser by sqrt(2) and 2 in element size).
+
+    Returns (results coarse to fine, {quantity: :class:`Convergence`}) for the quantities of
+    :data:`CONVERGED`.
+    """
+    n = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
+    if n is None:
+        raise SensorInputError(f"mesh = {mesh!r}: must be one of {', '.join(MESH_LEVELS)} or a "
+                               "positive number of elements across a hinge")
+    runs = [verify(design, mesh=n / REFINEMENT_RATIO**k, **options) for k in (2, 1, 0)]
+    return runs, {q: richardson([getattr(r, q) for r in runs]) for q in CONVERGED}
+
+
+# --- the beam model beside the continuum -------------------------------------------------
+
+#: Output travel (fraction of the target) of the beam model's linear-limit solve.
+LINEAR_LIMIT_FRACTION = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class Verification:
+    """The continuum FE of a design beside its beam model (:func:`verify_design`).
+
+    ``fe`` is the finest of the three meshes; ``convergence`` holds the Richardson study of
+    A, k_out and SE; ``beam`` and ``fe_summary`` are dicts with ``amplification``,
+    ``k_out_N_per_mm``, ``strain_energy_mJ`` (FE: the extrapolated values) and
+    ``hinge_stress_MPa`` (the nominal stress one thickness inside each neck, where both
+    models are mesh- and root-independent) and ``hinge_peak_stress_MPa`` (beam: ROOT_KT x the
+    nominal root stress of a cut root; FE: the peak at the roots, singular at sharp corners);
+    ``errors_pct`` the beam's errors relative to the FE.
+    """
+
+    design: Design
+    mesh: str
+    fe: ContinuumResult
+    runs: tuple
+    convergence: dict
+    fe_summary: dict
+    beam: dict
+    errors_pct: dict
+
+
+def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict:
+    from geometry.topology import build_beam_model
+    from sensor.mechanics.solver import solve
+    from sensor.mechanics.stress import hinge_stresses
+
+    model = build_beam_model(design)
+    travel = target_output_mm if nonlinear else target_output_mm * LINEAR_LIMIT_FRACTION
+    r = solve(model, target_output_mm=travel)
+    scale = target_output_mm / r.output_travel_mm
+    s = hinge_stresses(model, r)
+    return {"amplification": r.amplification, "k_out_N_per_mm": r.k_out_N_per_mm,
+            "strain_energy_mJ": r.strain_energy_mJ * scale**2,
+            "hinge_stress_MPa": {h: v.neck_MPa * scale for h, v in s.items()},
+            "hinge_peak_stress_MPa": {h: v.peak_MPa * scale for h, v in s.items()}}
+
+
+def verify_design(design: Design, mesh: str | float = "default", plane_strain: bool = False,
+                  nonlinear: bool = False, target_output_mm: float = 1.0,
+                  kerf_mm: float = 0.0, clamp: str = "bottom edge") -> Verification:
+    """Continuum FE (three meshes, Richardson) and beam model of one design, compared at
+    ``target_output_mm`` (linear: both in the linear limit, scaled to it)."""
+    runs, conv = convergence_study(design, mesh, plane_strain=plane_strain, nonlinear=nonlinear,
+                                   target_output_mm=target_output_mm, kerf_mm=kerf_mm, clamp=clamp)
+    fe = runs[-1]
+    fe_summary = {q: conv[q].extrapolated for q in CONVERGED}
+    fe_summary["hinge_stress_MPa"] = dict(fe.hinge_neck_stress_MPa)
+    fe_summary["hinge_peak_stress_MPa"] = dict(fe.hinge_stress_MPa)
+    beam = _beam_side(design, target_output_mm, nonlinear)
+    errors = {q: 100 * (beam[q] / fe_summary[q] - 1) for q in CONVERGED}
+    errors["hinge_stress_MPa"] = {h: 100 * (beam["hinge_stress_MPa"][h] / v - 1)
+                                  for h, v in fe_summary["hinge_stress_MPa"].items()}
+    return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, errors)
+
+
+def verification_to_dict(v: Verification) -> dict:
+    """The JSON form of a :class:`Verification` (keys ``fe``, ``beam``, ``errors_pct``,
+    ``convergence``, ``mesh``, ``options``)."""
+    def hinges(d):
+        return {str(h): x for h, x in d.items()}
+
+    def side(d):
+        return {k: hinges(x) if isinstance(x, dict) else x for k, x in d.items()}
+
+    fe = v.fe
+    return {
+        "design": v.design.name,
+        "fe": side(v.fe_summary),
+        "beam": side(v.beam),
+        "errors_pct": side(v.errors_pct),
+        "convergence": {q: {"values": list(c.values), "elements_across": [r.elements_across for r in v.runs],
+                            "order": None if math.isnan(c.order) else c.order,
+                            "extrapolated": c.extrapolated, "error_pct": c.error_pct}
+                        for q, c in v.convergence.items()},
+        "mesh": {"level": v.mesh, "elements_across_hinge": fe.elements_across,
+                 "hinge_element_size_mm": fe.size_mm, "elements": fe.n_elements, "dofs": fe.n_dofs},
+        "options": {"plane_strain": fe.plane_strain, "nonlinear": fe.nonlinear,
+                    "output_travel_mm": fe.output_travel_mm},
+    }
