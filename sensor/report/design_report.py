@@ -58,15 +58,42 @@ _CONTINUUM = "sensor.mechanics.continuum"
 
 
 @dataclass(frozen=True)
+class ComparisonRow:
+    """One quantity of the beam model against the continuum FE (formatted for the page);
+    ``limit`` and ``verdict`` ("agrees" / "disagrees") are empty without a limit."""
+
+    label: str
+    unit: str
+    fe: str
+    beam: str
+    error_pct: str
+    fe_mesh_error_pct: str
+    limit: str
+    verdict: str
+
+
+@dataclass(frozen=True)
+class HingeStressRow:
+    """One hinge's stress one thickness inside its neck, FE against beam, and the beam's
+    peak at the root (MPa, formatted)."""
+
+    hinge: str
+    fe_MPa: str
+    beam_MPa: str
+    error_pct: str
+    beam_peak_MPa: str
+
+
+@dataclass(frozen=True)
 class Verification:
     """The continuum check as the report shows it: ``status`` "run" or "not run" (with the
-    ``reason``), and when run the comparison rows and the raw dict of
+    ``reason``), and when run the comparison rows, a sentence on the method and the dict of
     ``verification_to_dict`` (``data``)."""
 
     status: str
     reason: str = ""
-    rows: tuple = ()          # (label, unit, FE, beam, error %, FE mesh error %, limit, verdict)
-    hinge_rows: tuple = ()    # (hinge, FE neck MPa, beam neck MPa, error %, beam peak MPa)
+    rows: tuple[ComparisonRow, ...] = ()
+    hinge_rows: tuple[HingeStressRow, ...] = ()
     method: str = ""
     data: dict | None = None
 
@@ -192,19 +219,21 @@ def verification_from_dict(data: dict) -> Verification:
         err = data["errors_pct"][key]
         limit = VERIFY_LIMITS_PCT.get(key)
         verdict = "" if limit is None else ("agrees" if abs(err) <= limit else "disagrees")
-        rows.append((label, unit, f"{data['fe'][key]:.4f}", f"{data['beam'][key]:.4f}",
-                     f"{err:+.2f}", f"{data['convergence'][key]['error_pct']:.3f}",
-                     "" if limit is None else f"|error| ≤ {limit:g} %", verdict))
+        rows.append(ComparisonRow(label, unit, f"{data['fe'][key]:.4f}", f"{data['beam'][key]:.4f}",
+                                  f"{err:+.2f}", f"{data['convergence'][key]['error_pct']:.3f}",
+                                  "" if limit is None else f"|error| ≤ {limit:g} %", verdict))
     fe_s, beam_s = data["fe"]["hinge_stress_MPa"], data["beam"]["hinge_stress_MPa"]
-    hinge_rows = tuple((h, f"{fe_s[h]:.2f}", f"{beam_s[h]:.2f}",
-                        f"{data['errors_pct']['hinge_stress_MPa'][h]:+.1f}",
-                        f"{data['beam']['hinge_peak_stress_MPa'][h]:.1f}") for h in fe_s)
+    hinge_rows = tuple(HingeStressRow(str(h), f"{fe_s[h]:.2f}", f"{beam_s[h]:.2f}",
+                                      f"{data['errors_pct']['hinge_stress_MPa'][h]:+.1f}",
+                                      f"{data['beam']['hinge_peak_stress_MPa'][h]:.1f}") for h in fe_s)
     mesh, opts = data["mesh"], data["options"]
     method = (f"{'plane strain' if opts['plane_strain'] else 'plane stress'}, "
               f"{'geometrically nonlinear' if opts['nonlinear'] else 'linear'}; quadratic "
               f"triangles, {mesh['elements']} elements, {mesh['elements_across_hinge']:g} across "
-              f"each hinge (finest of three meshes, Richardson-extrapolated); at "
-              f"{opts['output_travel_mm']:g} mm output travel")
+              f"each hinge (finest of three meshes; FE values Richardson-extrapolated, with "
+              f"the estimated discretisation error); at {opts['output_travel_mm']:g} mm output "
+              f"travel" + ("" if opts["nonlinear"] else ", the beam model in its linear limit "
+                           "scaled to it (the solve of section 2 is nonlinear)"))
     return Verification("run", rows=tuple(rows), hinge_rows=hinge_rows, method=method, data=data)
 
 
