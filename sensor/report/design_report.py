@@ -189,6 +189,21 @@ def datasheet_rows(ds, cross) -> list[Quantity]:
     ]
 
 
+def key_rows(q, ds, verification: Verification) -> list[Quantity]:
+    """The few numbers a reader looks for first (details in the sections)."""
+    if verification.status == "run":
+        verdicts = [r.verdict for r in verification.rows if r.verdict]
+        checked = "agrees" if all(v == "agrees" for v in verdicts) else "disagrees"
+    else:
+        checked = "not run"
+    return [Quantity("range", f"{q.range_N:.3f}", "N"),
+            Quantity("amplification", f"{q.amplification:.3f}", ""),
+            Quantity("sensitivity", f"{ds.sensitivity_mV_per_N:.1f}", "mV/N"),
+            Quantity("resolution", f"{ds.resolution_N * 1e3:.2f}", "mN RMS"),
+            Quantity("hysteresis", f"{ds.hysteresis_pct:.2f}", "% FS"),
+            Quantity("FE check", checked, "")]
+
+
 def render_figure(design: Design, model, result, parts, window_px=RENDER_WINDOW_PX) -> EmbeddedFigure:
     """The deformed body (``dacm render``'s picture) as an embedded PNG."""
     from sensor.mechanics.render import deformed_body, render_png
@@ -334,6 +349,7 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
     html = render_template(
         "design_report.html.j2", design=design, generated=generated, command=command,
         target_output_mm=target_output_mm, design_rows=design_rows(design),
+        key_rows=key_rows(q, ds, verification),
         solve_rows=solve_rows(r, q, a_kin, DEFAULT_LAW),
         hinge_rotations=sorted(r.hinge_rotation_deg.items()),
         datasheet_rows=datasheet_rows(ds, cross), figures=figures, verification=verification,

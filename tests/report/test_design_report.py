@@ -7,6 +7,7 @@ import sys
 import time
 import xml.etree.ElementTree as ET
 from html.parser import HTMLParser
+from types import SimpleNamespace
 
 import imageio.v3 as iio
 import numpy as np
@@ -22,6 +23,7 @@ from sensor.readout.sensor_model import build_sensor
 from sensor.report.design_report import (
     VERIFY_LIMITS_PCT,
     continuum_verification,
+    key_rows,
     output_paths,
     verification_from_dict,
     write_design_report,
@@ -174,6 +176,10 @@ def test_verification_verdicts_use_the_design_limits():
     assert "|error| ≤ 1.5 % on A" in page and "plane stress, linear" in page
     assert [(h.hinge, h.fe_MPa, h.beam_MPa) for h in v.hinge_rows] == [("1", "7.81", "7.78"),
                                                                        ("9", "21.90", "22.30")]
+    q = SimpleNamespace(range_N=1.0, amplification=2.0)
+    ds = SimpleNamespace(sensitivity_mV_per_N=1.0, resolution_N=1e-3, hysteresis_pct=1.0)
+    assert key_rows(q, ds, v)[-1].value == "disagrees"
+    assert key_rows(q, ds, verification_from_dict(_verification_dict(1.49, -2.99)))[-1].value == "agrees"
 
 
 def test_nothing_is_written_over_an_existing_file_without_force(tmp_path):
