@@ -19,8 +19,8 @@ from mri.errors import MriError
 from sensor.errors import SensorError
 
 #: Command modules, in the order ``dacm --help`` lists them.
-COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "sensor", "measure", "snr",
-            "line", "loop")
+COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "sensor", "measure", "report",
+            "snr", "line", "loop")
 
 #: Exceptions that mean "bad input", reported in one line with exit status 2.
 USER_ERRORS = (GeometryError, MriError, SensorError, tomllib.TOMLDecodeError, OSError)

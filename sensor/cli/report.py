@@ -1,0 +1,64 @@
+"""``dacm report``: one self-contained HTML page of a design (profile, solve, datasheet,
+render, continuum verification, export files with checksums, inputs and versions)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shlex
+import sys
+from pathlib import Path
+
+from sensor.cli.design_args import add_design_arguments, design_from_args
+
+DEFAULT_OUT_DIR = Path("dacm-out")
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "report", help="one self-contained HTML report of a design, with the files to make it",
+        description="Solve a design, build its sensor datasheet, render it, verify it against "
+                    "the continuum model (when this version has one) and export its files, "
+                    "then write OUT/<name>-report.html: one page with every figure embedded "
+                    "(it opens offline and loads nothing) beside OUT/<name>.dxf, .stl, .step, "
+                    ".json and .toml, listed in it with their sizes and SHA-256.")
+    add_design_arguments(p)
+    p.add_argument("--target-output", type=float, default=1.0, metavar="MM",
+                   help="output (mirror) travel to solve to and full scale of the datasheet, "
+                        "mm (default 1)")
+    p.add_argument("--no-verify", action="store_true",
+                   help="skip the continuum verification (it takes about 20 s)")
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT_DIR, metavar="DIR",
+                   help="output folder, created if missing (default ./dacm-out)")
+    p.add_argument("--force", action="store_true", help="replace files that exist")
+    p.add_argument("--json", action="store_true",
+                   help="print the report's numbers and files as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from sensor.errors import UsageError
+    from sensor.report.design_report import output_paths, write_design_report
+
+    if not (math.isfinite(args.target_output) and args.target_output > 0):
+        raise UsageError(f"--target-output = {args.target_output:g}: must be a positive number of mm")
+    design = design_from_args(args)
+    existing = [p for p in output_paths(design, args.out) if p.exists()]
+    if existing and not args.force:
+        raise UsageError(f"{existing[0]} exists ({len(existing)} of the report's files do): "
+                         "use --force to replace them, or another --out")
+    command = shlex.join(["dacm", *sys.argv[1:]]) if sys.argv[1:2] == ["report"] else ""
+    report = write_design_report(design, args.out, target_output_mm=args.target_output,
+                                 verify=not args.no_verify, command=command, force=args.force)
+    if args.json:
+        print(json.dumps(report.summary, indent=1))
+        return 0
+    s, v = report.summary["solve"], report.summary["verification"]
+    print(f"{design.name}: A = {s['amplification']:.4f}, range {s['range_N']:.4f} N, "
+          f"H = {100 * s['hysteresis']:.3f} % FS; verification: {v['status']}"
+          + (f": {v['reason']}" if v["status"] != "run" else ""))
+    for f in report.files:
+        print(f"wrote {args.out / f.name}")
+    print(f"wrote {report.path}")
+    return 0
