@@ -110,6 +110,8 @@ class Design:
 MAX_LENGTH_MM = 1000.0
 _LENGTH = Number(0.0, MAX_LENGTH_MM, lo_open=True, unit="mm")
 _ANGLE = Number(0.0, 90.0, lo_open=True, hi_open=True, unit="deg")
+#: Largest cutting kerf (mm): water-jet kerfs are 0.1-1.5 mm; wider ones close every gap.
+MAX_KERF_MM = 5.0
 
 #: The rule of every numeric field of :class:`Design` (``phi2_deg`` may also be None).
 FIELD_RULES: dict[str, Number] = {
@@ -117,8 +119,8 @@ FIELD_RULES: dict[str, Number] = {
     **{name: _LENGTH for name in (
         "width_mm", "height_mm", "sheet_thickness_mm", "hinge_length_mm", "link_width_mm",
         "plate_thickness_mm", "knee_width_mm", "knee_height_mm", "platform_width_mm",
-        "platform_thickness_mm", "fiber_post_width_mm", "fiber_clearance_mm", "kerf_mm",
-        "min_feature_mm")},
+        "platform_thickness_mm", "fiber_post_width_mm", "fiber_clearance_mm", "min_feature_mm")},
+    "kerf_mm": Number(0.0, MAX_KERF_MM, lo_open=True, unit="mm"),
 }
 _MATERIAL_RULES = {"E_MPa": Number(0.0, 1e7, lo_open=True, unit="MPa"),
                    "nu": Number(0.0, 0.5, hi_open=True)}

@@ -67,3 +67,21 @@ class SnapThroughError(InstabilityError):
 
 class CapacityWarning(UserWarning):
     """A reference asks for more force than the actuator (or sensor) can give."""
+
+
+class SweepInterrupted(SensorError):
+    """A sweep stopped before its last cell (a signal, a lost cluster); the cells finished
+    so far are checkpointed and ``resume`` completes it. ``signum`` is the signal (or None)."""
+
+    def __init__(self, message: str, signum: int | None = None):
+        super().__init__(message)
+        self.signum = signum
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread like Ctrl-C's KeyboardInterrupt, so that every
+    command stops the same orderly way (checkpoint, one line, exit status 143)."""
+
+
+class ResourceNote(UserWarning):
+    """A request the tool changed to fit the machine (e.g. more workers than cores)."""
