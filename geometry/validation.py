@@ -61,18 +61,18 @@ class Number:
     @property
     def rule(self) -> str:
         kind = "an integer" if self.integer else "a number"
-        lo, hi = self.lo, self.hi
-        if lo == 0 and self.lo_open and not self.hi_open:
+        lo, hi = (None if v is None else str(int(v)) if self.integer else f"{v:g}"
+                  for v in (self.lo, self.hi))
+        if self.lo == 0 and self.lo_open and not self.hi_open:
             text = f"a positive {'integer' if self.integer else 'finite number'}"
-            text += "" if hi is None else f" up to {hi:g}"
+            text += "" if hi is None else f" up to {hi}"
         elif lo is not None and hi is not None:
-            both_open = self.lo_open and self.hi_open
-            text = (f"{kind} strictly between {lo:g} and {hi:g}" if both_open else
-                    f"{kind} in {'(' if self.lo_open else '['}{lo:g}, {hi:g}{')' if self.hi_open else ']'}")
+            text = (f"{kind} strictly between {lo} and {hi}" if self.lo_open and self.hi_open else
+                    f"{kind} in {'(' if self.lo_open else '['}{lo}, {hi}{')' if self.hi_open else ']'}")
         elif lo is not None:
-            text = f"{kind} {'>' if self.lo_open else '>='} {lo:g}"
+            text = f"{kind} {'>' if self.lo_open else '>='} {lo}"
         elif hi is not None:
-            text = f"{kind} {'<' if self.hi_open else '<='} {hi:g}"
+            text = f"{kind} {'<' if self.hi_open else '<='} {hi}"
         else:
             text = kind if self.integer else "a finite number"
         return f"{text} ({self.unit})" if self.unit else text
