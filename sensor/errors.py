@@ -69,11 +69,17 @@ class CapacityWarning(UserWarning):
     """A reference asks for more force than the actuator (or sensor) can give."""
 
 
-class SweepInterrupted(SensorError):
-    """A sweep stopped before its last cell (a signal, a lost cluster); the cells finished
-    so far are checkpointed and ``resume`` completes it. ``signum`` is the signal (or None)."""
+class ClusterLostError(SweepError):
+    """The Dask cluster went away (every worker, or the scheduler) during a sweep; the cells
+    finished so far are checkpointed and ``resume`` completes the sweep."""
 
-    def __init__(self, message: str, signum: int | None = None):
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM stopped a sweep after its finished cells were checkpointed. Not an
+    error of the input: a KeyboardInterrupt that says how far the sweep got, for the one
+    line the command prints; ``signum`` is the signal (SIGINT or SIGTERM)."""
+
+    def __init__(self, message: str, signum: int):
         super().__init__(message)
         self.signum = signum
 

@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except SweepInterrupted as exc:
         print(f"dacm {args.command}: {_one_line(exc)}", file=sys.stderr)
-        return 128 + exc.signum if exc.signum else 1  # a lost cluster is not bad input
+        return 128 + exc.signum
     except KeyboardInterrupt as exc:
         term = isinstance(exc, Terminated)
         print(f"dacm {args.command}: interrupted ({'SIGTERM' if term else 'SIGINT'})", file=sys.stderr)
