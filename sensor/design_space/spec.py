@@ -12,7 +12,7 @@ import numpy as np
 from geometry.params import HINGE_SETS, Design, design_from_dict, hinge_set_thicknesses
 from geometry.errors import GeometryError
 from sensor.errors import SweepError
-from sensor.validation import Number, check_fields, is_integer
+from sensor.validation import Number, is_integer
 from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw
 
 
@@ -37,6 +37,9 @@ class Grid:
     stop: float
     n: int
 
+    def __post_init__(self):
+        self.check(self.start, self.stop, self.n, "Grid")
+
     @classmethod
     def parse(cls, text: str, name: str) -> "Grid":
         parts = str(text).split(":")
@@ -46,18 +49,23 @@ class Grid:
             raise SweepError(f"{name} = {text!r}: must be START:STOP:N (degrees, degrees, count)") from None
         if len(parts) != 3:
             raise SweepError(f"{name} = {text!r}: must be START:STOP:N (degrees, degrees, count)")
-        return cls(start, stop, n).validated(name)
+        cls.check(start, stop, n, name)
+        return cls(start, stop, n)
+
+    @staticmethod
+    def check(start, stop, n, name: str) -> None:
+        """Raise :class:`SweepError` naming ``name`` unless START:STOP:N is a grid of angles."""
+        text = f"{start!r}:{stop!r}:{n!r}"
+        if is_integer(n) and n < 1:
+            raise SweepError(f"{name} = {text}: the grid is empty (N = {n}; need N >= 1)")
+        for field_, rule, value in (("START", _ANGLE, start), ("STOP", _ANGLE, stop), ("N", _GRID_N, n)):
+            if not rule.ok(value):
+                raise SweepError(f"{name} = {text}: {field_} = {value!r}: must be {rule.rule}")
+        if n > 1 and stop <= start:
+            raise SweepError(f"{name} = {text}: STOP must exceed START")
 
     def validated(self, name: str) -> "Grid":
-        if is_integer(self.n) and self.n < 1:
-            raise SweepError(f"{name} = {self}: the grid is empty (N = {self.n}; need N >= 1)")
-        for field_, rule in (("START", _ANGLE), ("STOP", _ANGLE), ("N", _GRID_N)):
-            value = {"START": self.start, "STOP": self.stop, "N": self.n}[field_]
-            if not rule.ok(value):
-                raise SweepError(f"{name} = {self.start!r}:{self.stop!r}:{self.n!r}: {field_} = "
-                                 f"{value!r}: must be {rule.rule}")
-        if self.n > 1 and self.stop <= self.start:
-            raise SweepError(f"{name} = {self}: STOP must exceed START")
+        self.check(self.start, self.stop, self.n, name)
         return self
 
     @property
@@ -93,7 +101,8 @@ class SweepSpec:
             if not isinstance(grid, Grid):
                 raise SweepError(f"{name} = {grid!r}: must be a Grid (START:STOP:N)")
             grid.validated(f"--{name}")
-        check_fields(self, SPEC_RULES, SweepError)
+        for name, rule in SPEC_RULES.items():  # numpy scalars become the plain numbers they hold
+            object.__setattr__(self, name, rule.check(name, getattr(self, name), SweepError))
         cells = len(self.hinge_sets) * self.phi1.n * (self.phi2.n + 1)
         if cells > MAX_CELLS or cells * max(1, self.monte_carlo) > MAX_SOLVES:
             raise SweepError(f"sweep size = {len(self.hinge_sets)} hinge sets x {self.phi1.n} x "

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from sensor.errors import HysteresisError, SensorInputError
+from sensor.validation import is_real, require
 
 
 @dataclass(frozen=True)
@@ -102,9 +103,20 @@ class StrainEnergyLaw:
     h_per_mJ: float
     calibrated_on: str
 
+    def __post_init__(self):
+        require(is_real(self.h_per_mJ) and self.h_per_mJ > 0, "h_per_mJ", self.h_per_mJ,
+                "a positive finite number (per mJ)")
+        require(isinstance(self.calibrated_on, str), "calibrated_on", self.calibrated_on,
+                "the name of the specimen the law was calibrated on")
+
     def predict(self, strain_energy_mJ):
-        """Predicted hysteresis (fraction of full scale) for a strain energy in mJ."""
-        return self.h_per_mJ * np.asarray(strain_energy_mJ, dtype=float)
+        """Predicted hysteresis (fraction of full scale) for a strain energy in mJ (>= 0;
+        NaN, the mark of a failed solve, gives NaN)."""
+        se = np.asarray(strain_energy_mJ, dtype=float)
+        bad = se[~(np.isnan(se) | (np.isfinite(se) & (se >= 0)))]  # negative or infinite
+        require(bad.size == 0, "strain_energy_mJ", float(bad[0]) if bad.size else None,
+                "a non-negative finite number of mJ")
+        return self.h_per_mJ * se
 
     @classmethod
     def calibrate(cls, specimen: str = "basis") -> "StrainEnergyLaw":
