@@ -45,10 +45,12 @@ def register(subparsers) -> None:
 def spec_from_args(args: argparse.Namespace):
     """The sweep settings: defaults, then the TOML file, then the flags."""
     from geometry.errors import GeometryError
+    from sensor.design_space.execution import check_run_options
     from sensor.design_space.spec import Grid, SweepSpec
     from sensor.errors import SweepError
     from sensor.validation import is_integer, is_real
 
+    check_run_options(args.workers, args.scheduler)  # before anything is made in --out
     cfg: dict = {}
     if args.config is not None:
         try:

@@ -40,8 +40,8 @@ from sensor.validation import Number
 #: Seconds without any Dask worker (or without the scheduler) before a sweep gives up;
 #: with the 2 s the client takes to notice, a lost cluster ends the sweep within 20 s.
 CLUSTER_TIMEOUT_S = 10.0
-#: A Dask scheduler address: [protocol://]host[:port].
-_ADDRESS = re.compile(r"([a-z][a-z0-9+]*://)?[A-Za-z0-9._\-\[\]:]+")
+#: A Dask scheduler address: protocol://host[:port] or host:port.
+_ADDRESS = re.compile(r"[a-z][a-z0-9+]*://[A-Za-z0-9._\-\[\]:/]+|[A-Za-z0-9._\-\[\]]+:\d+")
 _WORKERS = Number(0, 4096, integer=True)
 _TIMEOUT = Number(0.1, 3600.0, unit="s")
 
@@ -58,11 +58,7 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
     at ``dataset_path`` (same spec) are reused. The dataset is checkpointed (atomically)
     every ``checkpoint_s`` seconds and when the sweep is stopped, so it can be resumed.
     """
-    _WORKERS.check("workers", workers, SweepError)
-    _TIMEOUT.check("cluster_timeout_s", cluster_timeout_s, SweepError)
-    if scheduler is not None and not (isinstance(scheduler, str) and _ADDRESS.fullmatch(scheduler)):
-        raise SweepError(f"--scheduler = {scheduler!r}: must be a Dask scheduler address "
-                         "[protocol://]host[:port], e.g. tcp://10.0.0.5:8786")
+    check_run_options(workers, scheduler, cluster_timeout_s)
     if dataset_path is not None:
         remove_stale_temps(dataset_path)
     ds = _checkpoint(spec, dataset_path) if resume and dataset_path is not None else None
@@ -95,6 +91,16 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
         if progress is not None:
             progress.stop()
     return ds, n_cells
+
+
+def check_run_options(workers: int = 0, scheduler: str | None = None,
+                      cluster_timeout_s: float = CLUSTER_TIMEOUT_S) -> None:
+    """Check where a sweep is to run before anything is made; raise :class:`SweepError`."""
+    _WORKERS.check("--workers", workers, SweepError)
+    _TIMEOUT.check("cluster_timeout_s", cluster_timeout_s, SweepError)
+    if scheduler is not None and not (isinstance(scheduler, str) and _ADDRESS.fullmatch(scheduler)):
+        raise SweepError(f"--scheduler = {scheduler!r}: must be a Dask scheduler address "
+                         "protocol://host[:port] or host:port, e.g. tcp://10.0.0.5:8786")
 
 
 def _save_checkpoint(ds: xr.Dataset, path: Path | None, done: int) -> str:
