@@ -104,18 +104,22 @@ class StrainEnergyLaw:
     calibrated_on: str
 
     def __post_init__(self):
-        require(is_real(self.h_per_mJ) and self.h_per_mJ > 0, "h_per_mJ", self.h_per_mJ,
-                "a positive finite number (per mJ)")
+        require(is_real(self.h_per_mJ) and 0 < self.h_per_mJ <= 1e3, "h_per_mJ", self.h_per_mJ,
+                "a positive finite number up to 1000 (per mJ; Table 6 gives about 0.06)")
         require(isinstance(self.calibrated_on, str), "calibrated_on", self.calibrated_on,
                 "the name of the specimen the law was calibrated on")
 
     def predict(self, strain_energy_mJ):
-        """Predicted hysteresis (fraction of full scale) for a strain energy in mJ (>= 0;
-        NaN, the mark of a failed solve, gives NaN)."""
-        se = np.asarray(strain_energy_mJ, dtype=float)
-        bad = se[~(np.isnan(se) | (np.isfinite(se) & (se >= 0)))]  # negative or infinite
+        """Predicted hysteresis (fraction of full scale) for a strain energy in mJ, in
+        [0, 1e6] (NaN, the mark of a failed solve, gives NaN)."""
+        try:
+            se = np.asarray(strain_energy_mJ, dtype=float)
+        except (TypeError, ValueError):
+            se = None
+        require(se is not None, "strain_energy_mJ", strain_energy_mJ, "a number or an array of numbers (mJ)")
+        bad = se[~(np.isnan(se) | ((se >= 0) & (se <= 1e6)))]  # negative, huge or infinite
         require(bad.size == 0, "strain_energy_mJ", float(bad[0]) if bad.size else None,
-                "a non-negative finite number of mJ")
+                "a number in [0, 1e6] (mJ)")
         return self.h_per_mJ * se
 
     @classmethod
