@@ -46,11 +46,11 @@ def add_design_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _flag_design(args: argparse.Namespace) -> Design:
-    kind = args.design or "proposed"
+    kind = "proposed" if args.design is None else args.design
     if kind not in DESIGN_KINDS:
         raise UsageError(f"--design = {kind!r}: must be one of {', '.join(DESIGN_KINDS)}")
     phi1 = DEFAULT_PHI1_DEG if args.phi1 is None else args.phi1
-    hinges = args.hinges or DEFAULT_HINGES
+    hinges = DEFAULT_HINGES if args.hinges is None else args.hinges
     if kind == "basis":
         if args.phi2 is not None:
             raise UsageError(f"--phi2 = {args.phi2:g}: the basis body has no middle branch "

@@ -42,6 +42,8 @@ from sensor.validation import Number
 CLUSTER_TIMEOUT_S = 10.0
 #: A Dask scheduler address: protocol://host[:port] or host:port.
 _ADDRESS = re.compile(r"[a-z][a-z0-9+]*://[A-Za-z0-9._\-\[\]:/]+|[A-Za-z0-9._\-\[\]]+:\d+")
+#: The variables that say which cells a checkpoint holds (named first when missing).
+_BOOKKEEPING = ("computed", "feasible", "reason", "basis_reason")
 _WORKERS = Number(0, 4096, integer=True)
 _TIMEOUT = Number(0.1, 3600.0, unit="s")
 
@@ -124,17 +126,27 @@ def _checkpoint(spec: SweepSpec, path: Path) -> xr.Dataset | None:
     dataset of this spec (every variable present, same settings) and names the file if not."""
     if not path.exists():
         return None
+
+    def unreadable(exc):
+        reason = " ".join(str(exc).split())[:160] or type(exc).__name__
+        return SweepError(f"--resume: {path} is not a readable sweep dataset ({reason}); "
+                          "remove it or use another --out")
+
+    try:  # h5py and xarray raise many kinds of error for a corrupt file
+        with xr.open_dataset(path, engine="h5netcdf") as raw:
+            names = set(raw.data_vars)
+    except Exception as exc:
+        raise unreadable(exc) from None
+    reference = empty_dataset(spec, "")
+    missing = sorted(set(reference.data_vars) - names, key=lambda v: (v not in _BOOKKEEPING, v))
+    if missing:
+        raise SweepError(f"--resume: {path} lacks {len(missing)} variable(s) of a sweep dataset "
+                         f"({', '.join(missing[:4])}{', ...' if len(missing) > 4 else ''}): not written "
+                         "by dacm sweep; remove it or use another --out")
     try:
         ds = load_dataset(path)
-    except Exception as exc:  # h5py/xarray raise many kinds for a corrupt file
-        reason = " ".join(str(exc).split())[:160] or type(exc).__name__
-        raise SweepError(f"--resume: {path} is not a readable sweep dataset ({reason}); "
-                         "remove it or use another --out") from None
-    reference = empty_dataset(spec, "")
-    missing = sorted(set(reference.data_vars) - set(ds.data_vars))
-    if missing:
-        raise SweepError(f"--resume: {path} lacks the variable(s) {', '.join(missing[:5])}: not a "
-                         "dataset written by dacm sweep; remove it or use another --out")
+    except Exception as exc:
+        raise unreadable(exc) from None
     if ds.attrs.get("spec") != spec.to_json():
         raise SweepError(f"--resume: {path} was made with other parameters; "
                          "use the same grid and settings, or another --out")
