@@ -85,24 +85,26 @@ def _is_main_thread() -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    command = None
     try:
-        with _orderly_stops(args.command):
+        args = build_parser().parse_args(argv)
+        command = args.command
+        with _orderly_stops(command):
             return int(args.func(args) or 0)
     except BrokenPipeError:
         # the reader went away (e.g. `dacm ... | head`): stop quietly, as a filter should
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except SweepInterrupted as exc:
-        print(f"dacm {args.command}: {_one_line(exc)}", file=sys.stderr)
+        print(f"dacm {command}: {_one_line(exc)}", file=sys.stderr)
         return 128 + exc.signum
     except KeyboardInterrupt as exc:
         term = isinstance(exc, Terminated)
-        print(f"dacm {args.command}: interrupted ({'SIGTERM' if term else 'SIGINT'})", file=sys.stderr)
+        print(f"dacm{' ' + command if command else ''}: interrupted ({'SIGTERM' if term else 'SIGINT'})",
+              file=sys.stderr)
         return 128 + (signal.SIGTERM if term else signal.SIGINT)
     except USER_ERRORS as exc:
-        print(f"dacm {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"dacm {command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
 
 

@@ -7,8 +7,13 @@ import argparse
 import re
 from pathlib import Path
 
-from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
-from sensor.validation import Number
+from sensor.cli.design_args import (
+    add_design_arguments,
+    check_flags,
+    design_from_args,
+    travel_rule,
+)
+from sensor.validation import Number, require_finite
 
 DEFAULT_OUT_DIR = Path("dacm-out")
 DEFAULT_WINDOW = (1600, 1200)
@@ -68,6 +73,8 @@ def run(args: argparse.Namespace) -> int:
 
     model = build_beam_model(design)
     result = solve(model, target_output_mm=args.target_output)
+    require_finite(f"solve of {design.name}", {k: getattr(result, k) for k in (
+        "output_travel_mm", "input_force_N", "amplification", "strain_energy_mJ")})
     body = deformed_body(design, model, result, make_parts(make_layout(design)), args.scale)
     title = (f"{design.name}: output travel {result.output_travel_mm:.2f} mm "
              f"at input force {result.input_force_N:.2f} N")

@@ -6,11 +6,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 from pathlib import Path
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
-from sensor.validation import Number
+from sensor.validation import Number, require_finite
 
 #: Rules of the numeric flags.
 RULES = {"full_scale": Number(0.0, 1000.0, lo_open=True, unit="mm"),
@@ -61,7 +60,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from geometry.atomic import save_figure
     from geometry.checks import assert_feasible
-    from sensor.errors import SolverError, UsageError
+    from sensor.errors import UsageError
     from sensor.readout.datasheet import cross_axis, datasheet
     from sensor.readout.optics import OpticsSetup
     from sensor.readout.plots import calibration_figure, intensity_figure
@@ -84,9 +83,7 @@ def run(args: argparse.Namespace) -> int:
     ds = datasheet(sensor, material=design.material.name)
     cross = cross_axis(design, sensor.input_travel_mm)
     values = {**dataclasses.asdict(ds), **{f"cross_axis {k}": v for k, v in dataclasses.asdict(cross).items()}}
-    bad = [k for k, v in values.items() if isinstance(v, float) and not math.isfinite(v)]
-    if bad:
-        raise SolverError(f"datasheet of {design.name}: {bad[0]} = {values[bad[0]]}: the result is not finite")
+    require_finite(f"datasheet of {design.name}", values)
     files = []
     if not args.no_plots:
         args.out.mkdir(parents=True, exist_ok=True)

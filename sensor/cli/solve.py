@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 
-from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
-from sensor.validation import Number
+from sensor.cli.design_args import (
+    add_design_arguments,
+    check_flags,
+    design_from_args,
+    travel_rule,
+)
+from sensor.validation import Number, require_finite
 
 #: Rules of the numeric flags (the target travel's depends on the body, see run).
 RULES = {"increments": Number(1, 1000, integer=True),
@@ -38,14 +42,15 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from geometry.checks import assert_feasible
     from geometry.layout import kinematic_amplification
     from geometry.topology import build_beam_model, load_model
-    from sensor.errors import SolverError, UsageError
+    from sensor.errors import UsageError
     from sensor.mechanics.hysteresis import DEFAULT_LAW
     from sensor.mechanics.qualifiers import qualify
     from sensor.mechanics.solver import SolverOptions, solve
-    import numpy as np
 
     check_flags(args, RULES)
     if args.model is not None:
@@ -82,9 +87,7 @@ def run(args: argparse.Namespace) -> int:
         "converged": r.converged,
         "hinge_rotation_deg": {str(k): v for k, v in r.hinge_rotation_deg.items()},
     }
-    bad = [k for k, v in out.items() if isinstance(v, float) and not math.isfinite(v)]
-    if bad:
-        raise SolverError(f"solve of {name}: {bad[0]} = {out[bad[0]]}: the result is not finite")
+    require_finite(f"solve of {name}", out)
     if args.json:
         print(json.dumps(out, indent=1))
         return 0

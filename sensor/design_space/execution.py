@@ -34,7 +34,13 @@ from sensor.design_space.dataset import (
 )
 from sensor.design_space.rows import solve_row
 from sensor.design_space.spec import SweepSpec
-from sensor.errors import ClusterLostError, ResourceNote, SweepError, SweepInterrupted, Terminated
+from sensor.errors import (
+    ClusterLostError,
+    ResourceNote,
+    SweepError,
+    SweepInterrupted,
+    Terminated,
+)
 from sensor.validation import Number
 
 #: Seconds without any Dask worker (or without the scheduler) before a sweep gives up;

@@ -9,12 +9,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from geometry.params import HINGE_SETS, Design, design_from_dict, hinge_set_thicknesses
 from geometry.errors import GeometryError
+from geometry.params import HINGE_SETS, Design, design_from_dict, hinge_set_thicknesses
 from sensor.errors import SweepError
-from sensor.validation import Number, is_integer
 from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw
-
+from sensor.validation import Number, is_integer
 
 #: Bounds on a sweep's size, checked before anything is allocated: points per grid axis,
 #: cells of the whole sweep, and solves including Monte-Carlo draws (about a day on 2 cores).

@@ -161,3 +161,23 @@ def test_the_line_names_the_culprit(capsys, tmp_path, command, bad, fragment):
     err = capsys.readouterr().err
     assert_one_line_error(status, err, command)
     assert fragment in err, err
+
+
+def test_ctrl_c_in_a_command_is_one_line_and_status_130(tmp_path):
+    """Ctrl-C half-way through a render (about 6 s of work): one line, no traceback, 130,
+    and no picture (nor temp file) left."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    root = Path(__file__).resolve().parents[2]
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; from sensor.cli import main; sys.exit(main())",
+                             "render", "--out", str(tmp_path / "r.png")], cwd=root,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(2.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130, err
+    assert err.strip() == "dacm render: interrupted (SIGINT)", err
+    assert list(tmp_path.iterdir()) == []
