@@ -69,7 +69,7 @@ class CapacityWarning(UserWarning):
     """A reference asks for more force than the actuator (or sensor) can give."""
 
 
-class ClusterLostError(SweepError):
+class ClusterLostError(SensorError, RuntimeError):
     """The Dask cluster went away (every worker, or the scheduler) during a sweep; the cells
     finished so far are checkpointed and ``resume`` completes the sweep."""
 

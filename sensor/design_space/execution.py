@@ -270,6 +270,9 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
                 raise ClusterLostError(f"--scheduler = {address!r}: {fault} for {lost_after_s:g} s")
             else:
                 time.sleep(0.2)
+    except (OSError, TimeoutError) as exc:  # distributed's CommClosedError is an OSError
+        raise ClusterLostError(f"--scheduler = {address!r}: lost the scheduler "
+                               f"({type(exc).__name__})") from None
     finally:
         _close_client(client)
 
@@ -281,8 +284,9 @@ def _dask_result(future, address: str) -> dict:
         return future.result()
     except Exception as exc:
         if type(exc).__module__.split(".")[0] == "distributed" or isinstance(exc, OSError):
-            raise ClusterLostError(f"--scheduler = {address!r}: {type(exc).__name__}: "
-                                   f"{' '.join(str(exc).split())[:120]}") from None
+            what = ("lost the scheduler" if "connection-lost" in str(exc) or isinstance(exc, OSError)
+                    else "the workers running a row kept dying")
+            raise ClusterLostError(f"--scheduler = {address!r}: {what} ({type(exc).__name__})") from None
         raise
 
 
@@ -298,7 +302,20 @@ def _cluster_fault(client) -> str | None:
 
 
 def _close_client(client) -> None:
-    """Close the client without waiting long on a scheduler that is gone."""
-    with contextlib.suppress(Exception), warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        client.close(timeout=2)
+    """Close the client without waiting long on a scheduler that is gone, and without the
+    tracebacks distributed logs while it gives up reconnecting (its loggers are quiet
+    while the client closes)."""
+    import logging
+
+    loggers = [logging.getLogger(n) for n in list(logging.root.manager.loggerDict)
+               if n == "distributed" or n.startswith("distributed.")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        with contextlib.suppress(Exception), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            client.close(timeout=2)
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
