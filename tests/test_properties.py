@@ -153,3 +153,40 @@ def test_number_rule_accepts_exactly_what_it_says(lo, hi, lo_open, hi_open, inte
         return
     assert math.isfinite(v) and (lo is None or v >= lo) and (hi is None or v <= hi)
     assert not isinstance(value, bool)
+
+
+# --- the named cases of the issue -------------------------------------------------------------
+
+def test_sweep_spec_refuses_a_negative_seed_at_construction():
+    with pytest.raises(SweepError, match=r"seed = -1: must be an integer in \[0, "):
+        SweepSpec(seed=-1)
+
+
+def test_numpy_scalars_are_the_numbers_they_hold():
+    d = Design(phi1_deg=np.float32(20.0), phi2_deg=np.float64(30.0), kerf_mm=np.float16(0.5))
+    assert d.phi1_deg == 20.0
+    spec = SweepSpec(seed=np.int64(3), monte_carlo=np.int32(2), hinge_sd_mm=np.float32(0.02),
+                     phi1=Grid(np.float64(10), np.int64(20), np.int64(3)))
+    assert type(spec.seed) is int and spec.to_json() == SweepSpec(
+        seed=3, monte_carlo=2, hinge_sd_mm=float(np.float32(0.02)), phi1=Grid(10.0, 20, 3)).to_json()
+    assert StrainEnergyLaw(np.float64(0.06), "basis").predict(np.float32(1.0)) == pytest.approx(0.06)
+
+
+def test_strain_energy_law_refuses_a_negative_strain_energy():
+    law = StrainEnergyLaw.calibrate("basis")
+    with pytest.raises(SensorInputError, match=r"strain_energy_mJ = -0.5: must be a number in \[0, 1e\+06\]"):
+        law.predict([1.0, -0.5])
+    assert np.isnan(law.predict(np.nan))  # NaN marks a failed solve: passed through
+
+
+def test_design_name_cannot_leave_the_output_folder():
+    for name in ("../escaped", "", ".hidden", "a/b", "..", "a\\b"):
+        with pytest.raises(GeometryError, match="name = "):
+            Design(name=name)
+    assert Design(name="sample-a_2.v1").name == "sample-a_2.v1"
+
+
+def test_a_proposed_body_without_phi2_is_an_error_not_the_basis():
+    with pytest.raises(GeometryError, match="phi2_deg is missing"):
+        design_from_dict({"phi1_deg": 20.0})
+    assert design_from_dict({"phi1_deg": 20.0, "body": "basis"}).is_basis

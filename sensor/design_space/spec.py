@@ -38,6 +38,8 @@ class Grid:
 
     def __post_init__(self):
         self.check(self.start, self.stop, self.n, "Grid")
+        for name, kind in (("start", float), ("stop", float), ("n", int)):  # plain numbers
+            object.__setattr__(self, name, kind(getattr(self, name)))
 
     @classmethod
     def parse(cls, text: str, name: str) -> "Grid":

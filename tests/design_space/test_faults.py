@@ -178,3 +178,18 @@ def test_temp_file_of_a_killed_write_is_removed_by_the_next_run(tmp_path):
     save_dataset(ds, tmp_path / "sweep.nc")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.nc"]
     assert np.isfinite(load_dataset(tmp_path / "sweep.nc")["amplification"].values).any()
+
+
+def test_lost_scheduler_from_the_command_line_is_one_line(cluster, tmp_path):
+    """The command line adds distributed's own logging to the picture: still one line."""
+    address, procs = cluster
+    code = "import sys; from sensor.cli import main; sys.exit(main())"
+    proc = subprocess.Popen([sys.executable, "-c", code, "sweep", "--phi1", "8:30:40", "--phi2", "6:50:40",
+                             "--scheduler", address, "--out", str(tmp_path), "--quiet", "--no-plots"],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(4)
+    os.kill(procs[0].pid, signal.SIGKILL)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "lost the scheduler" in lines[0] and "--resume" in lines[0], err
