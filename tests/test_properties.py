@@ -174,7 +174,7 @@ def test_numpy_scalars_are_the_numbers_they_hold():
 
 def test_strain_energy_law_refuses_a_negative_strain_energy():
     law = StrainEnergyLaw.calibrate("basis")
-    with pytest.raises(SensorInputError, match=r"strain_energy_mJ = -0.5: must be a number in \[0, 1e\+06\]"):
+    with pytest.raises(SensorInputError, match=r"strain_energy_mJ = -0.5: must be a number in \[0, 1e6\]"):
         law.predict([1.0, -0.5])
     assert np.isnan(law.predict(np.nan))  # NaN marks a failed solve: passed through
 
