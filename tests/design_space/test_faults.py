@@ -193,3 +193,17 @@ def test_lost_scheduler_from_the_command_line_is_one_line(cluster, tmp_path):
     assert proc.returncode == 2, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "lost the scheduler" in lines[0] and "--resume" in lines[0], err
+
+
+def test_workers_beyond_the_cores_are_capped_with_a_one_line_note(tmp_path, capsys):
+    from sensor.cli import main
+    from sensor.design_space.execution import local_workers
+    from sensor.errors import ResourceNote
+
+    cores = len(os.sched_getaffinity(0))
+    with pytest.warns(ResourceNote, match=f"workers = 4096: more than the {cores} cores"):
+        assert local_workers(4096) == cores
+    assert main(["sweep", "--phi1", "20:22:2", "--phi2", "20:30:2", "--hinges", "05-03", "--workers", "64",
+                 "--out", str(tmp_path), "--quiet", "--no-plots"]) == 0
+    err = capsys.readouterr().err.strip()
+    assert err == f"dacm sweep: note: workers = 64: more than the {cores} cores of this machine; using {cores}"
