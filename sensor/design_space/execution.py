@@ -186,6 +186,8 @@ def _execute(spec: SweepSpec, todo, workers: int, scheduler: str | None, cluster
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
+    # fork: the workers are this process's own children, so they can watch it (a forkserver
+    # or spawn start would make them children of a helper process)
     pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("fork"),
                                initializer=_worker_setup, initargs=(os.getpid(),))
     try:
