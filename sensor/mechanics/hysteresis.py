@@ -104,8 +104,9 @@ class StrainEnergyLaw:
     calibrated_on: str
 
     def __post_init__(self):
-        require(is_real(self.h_per_mJ) and 0 < self.h_per_mJ <= 1e3, "h_per_mJ", self.h_per_mJ,
-                "a positive finite number up to 1000 (per mJ; Table 6 gives about 0.06)")
+        require(is_real(self.h_per_mJ) and 0 <= self.h_per_mJ <= 1e3, "h_per_mJ", self.h_per_mJ,
+                "a number in [0, 1000] (per mJ; Table 6 gives about 0.06, 0 is a body "
+                "without hysteresis)")
         require(isinstance(self.calibrated_on, str), "calibrated_on", self.calibrated_on,
                 "the name of the specimen the law was calibrated on")
 
