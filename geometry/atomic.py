@@ -1,15 +1,47 @@
 """Atomic file output shared by every writer of the tool (geometry is the bottom package).
 
 A file is written to a temporary sibling and moved into place only when complete, so an
-error half-way never leaves a partial or corrupt file behind.
+error half-way never leaves a partial or corrupt file behind. The temporary file is named
+``.NAME.tmp<PID>-XXXX.SUFFIX`` after the writing process: one killed (SIGKILL) in the
+middle of a write leaves it behind, and the next write of NAME removes it once that process
+is gone (:func:`remove_stale_temps`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tempfile
 from pathlib import Path
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process
+        return True
+    return True
+
+
+def remove_stale_temps(path: str | os.PathLike) -> list[Path]:
+    """Remove the temporary files of ``path`` left by writers that no longer run (and those
+    of the older ``.NAME.XXXXXXXX.SUFFIX`` form); return what was removed."""
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    name, suffix = re.escape(target.name), re.escape(target.suffix)
+    pattern = re.compile(rf"\.{name}\.(?:tmp(\d+)-[A-Za-z0-9_]+|[a-z0-9_]{{8}}){suffix}")
+    removed = []
+    with contextlib.suppress(OSError):
+        for entry in folder.iterdir():
+            m = pattern.fullmatch(entry.name)
+            if m and not (m.group(1) and _alive(int(m.group(1)))):
+                with contextlib.suppress(FileNotFoundError):
+                    entry.unlink()
+                    removed.append(entry)
+    return removed
 
 
 @contextlib.contextmanager
@@ -25,7 +57,9 @@ def atomic_path(path: str | os.PathLike):
         raise FileNotFoundError(f"output folder does not exist: {folder}")
     if not os.access(folder, os.W_OK):
         raise PermissionError(f"output folder is not writable: {folder}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=folder)
+    remove_stale_temps(target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.tmp{os.getpid()}-", suffix=target.suffix,
+                               dir=folder)
     os.close(fd)
     try:
         yield Path(tmp)

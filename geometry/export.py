@@ -8,7 +8,6 @@ builds and checks every file's content, and only then writes them through
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -29,7 +28,7 @@ from geometry.cad import (
 from geometry.checks import assert_feasible
 from geometry.errors import GeometryError, ParameterError
 from geometry.layout import make_layout, make_parts
-from geometry.params import Design
+from geometry.params import FIELD_RULES, Design
 from geometry.topology import build_beam_model, model_to_json
 
 FORMATS = ("dxf", "stl", "step", "json")
@@ -54,8 +53,7 @@ def kerf_path(design: Design, face: cq.Face, kerf_mm: float) -> cq.Face:
     open (same number of holes) and every hinge neck at its drawn thickness and at least
     ``min_feature_mm``; raises :class:`GeometryError` naming the kerf otherwise.
     """
-    if not (math.isfinite(kerf_mm) and kerf_mm > 0):
-        raise ParameterError(f"kerf = {kerf_mm!r} mm: must be a positive number")
+    FIELD_RULES["kerf_mm"].check("kerf", kerf_mm, ParameterError)
     half = kerf_mm / 2.0
     path = offset_face(face, half)
     holes = hole_count(face)

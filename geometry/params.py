@@ -21,6 +21,7 @@ import tomli_w
 
 from geometry.atomic import atomic_path
 from geometry.errors import GeometryError, ParameterError
+from geometry.validation import STEM_RULE, Number, check_fields, is_real, is_stem
 
 N_HINGES = 12
 
@@ -62,7 +63,7 @@ MATERIALS: dict[str, Material] = {
 
 def hinge_set_thicknesses(name: str) -> tuple[float, ...]:
     """Thicknesses (mm) of hinges 1-12 for a named hinge set ("05-03" or "03-03")."""
-    if name not in HINGE_SETS:
+    if not isinstance(name, str) or name not in HINGE_SETS:
         raise ParameterError(
             f"hinge_set = {name!r}: must be one of {', '.join(sorted(HINGE_SETS))}"
         )
@@ -114,49 +115,50 @@ class Design:
         return dataclasses.replace(self, **changes)
 
 
-_POSITIVE = (
-    "width_mm", "height_mm", "sheet_thickness_mm", "hinge_length_mm", "link_width_mm",
-    "plate_thickness_mm", "knee_width_mm", "knee_height_mm", "platform_width_mm",
-    "platform_thickness_mm", "fiber_post_width_mm", "fiber_clearance_mm", "kerf_mm",
-    "min_feature_mm",
-)
+#: Largest length accepted for any dimension (mm): an MRI bore is about 600 mm across.
+MAX_LENGTH_MM = 1000.0
+_LENGTH = Number(0.0, MAX_LENGTH_MM, lo_open=True, unit="mm")
+_ANGLE = Number(0.0, 90.0, lo_open=True, hi_open=True, unit="deg")
+#: Largest cutting kerf (mm): water-jet kerfs are 0.1-1.5 mm; wider ones close every gap.
+MAX_KERF_MM = 5.0
 
-
-def _is_number(value) -> bool:
-    """A real number (int or float), not a bool or a string."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+#: The rule of every numeric field of :class:`Design` (``phi2_deg`` may also be None).
+FIELD_RULES: dict[str, Number] = {
+    "phi1_deg": _ANGLE, "phi2_deg": _ANGLE,
+    **{name: _LENGTH for name in (
+        "width_mm", "height_mm", "sheet_thickness_mm", "hinge_length_mm", "link_width_mm",
+        "plate_thickness_mm", "knee_width_mm", "knee_height_mm", "platform_width_mm",
+        "platform_thickness_mm", "fiber_post_width_mm", "fiber_clearance_mm", "min_feature_mm")},
+    "kerf_mm": Number(0.0, MAX_KERF_MM, lo_open=True, unit="mm"),
+}
+_MATERIAL_RULES = {"E_MPa": Number(0.0, 1e7, lo_open=True, unit="MPa"),
+                   "nu": Number(0.0, 0.5, hi_open=True)}
 
 
 def validate(d: Design) -> None:
-    """Check each parameter on its own (ranges, types); raise :class:`ParameterError`.
+    """Check each parameter on its own (types, ranges, the name); raise :class:`ParameterError`.
 
     Whether the parameters fit together is the job of :mod:`geometry.checks`.
     """
-    for name in _POSITIVE:
-        value = getattr(d, name)
-        if not _is_number(value) or not math.isfinite(value) or value <= 0:
-            raise ParameterError(f"{name} = {value!r}: must be a positive finite number (mm)")
-    for name in ("phi1_deg", "phi2_deg"):
-        value = getattr(d, name)
-        if name == "phi2_deg" and value is None:
-            continue
-        if not _is_number(value) or not (0.0 < value < 90.0):
-            raise ParameterError(f"{name} = {value!r}: must be a number strictly between 0 and 90 degrees")
-    if len(d.hinge_thickness_mm) != N_HINGES:
-        raise ParameterError(
-            f"hinge_thickness_mm has {len(d.hinge_thickness_mm)} values: must give hinges 1-{N_HINGES}"
-        )
-    for i, t in enumerate(d.hinge_thickness_mm, start=1):
-        if not math.isfinite(t) or t <= 0:
-            raise ParameterError(f"hinge {i} thickness = {t!r} mm: must be positive")
-    if not (d.material.E_MPa > 0 and math.isfinite(d.material.E_MPa)):
-        raise ParameterError(f"material.E_MPa = {d.material.E_MPa!r}: must be positive")
-    if not (0.0 <= d.material.nu < 0.5):
-        raise ParameterError(f"material.nu = {d.material.nu!r}: must lie in [0, 0.5)")
+    check_fields(d, FIELD_RULES, ParameterError, skip_none=True)
+    if not isinstance(d.hinge_set, str):
+        raise ParameterError(f"hinge_set = {d.hinge_set!r}: must be a name such as "
+                             f"{', '.join(HINGE_SETS)}")
+    t = d.hinge_thickness_mm
+    if not isinstance(t, tuple) or len(t) != N_HINGES:
+        raise ParameterError(f"hinge_thickness_mm = {t!r}: must give hinges 1-{N_HINGES} "
+                             f"as a tuple of {N_HINGES} numbers (mm)")
+    for i, v in enumerate(t, start=1):
+        _LENGTH.check(f"hinge {i} thickness", v, ParameterError)
+    if not isinstance(d.material, Material):
+        raise ParameterError(f"material = {d.material!r}: must be a Material")
+    check_fields(d.material, _MATERIAL_RULES, ParameterError, prefix="material.")
     allow = d.material.allowable_stress_MPa
-    if not (_is_number(allow) and allow > 0):
+    if not (allow == math.inf or (is_real(allow) and allow > 0)):
         raise ParameterError(f"material.allowable_stress_MPa = {allow!r}: must be a positive number "
                              "(MPa; inf for no stress limit)")
+    if not is_stem(d.name):
+        raise ParameterError(f"name = {d.name!r}: must be {STEM_RULE}")
 
 
 def make_design(phi1_deg: float = 22.0, phi2_deg: float | None = 17.2, hinges: str = "05-03",
@@ -187,9 +189,14 @@ def preset(name: str) -> Design:
 
 # --- TOML ------------------------------------------------------------------------------
 
+#: The TOML key that says which body a design is (TOML has no null for ``phi2_deg``).
+BODIES = ("basis", "proposed")
+
+
 def design_to_dict(d: Design) -> dict:
-    """A plain dict of the design (TOML/JSON friendly; ``phi2_deg`` omitted for the basis)."""
-    out = {}
+    """A plain dict of the design (TOML/JSON friendly): ``body`` says basis or proposed;
+    ``phi2_deg`` is omitted for the basis."""
+    out = {"body": "basis" if d.is_basis else "proposed"}
     for f in dataclasses.fields(d):
         value = getattr(d, f.name)
         if f.name == "material":
@@ -201,49 +208,70 @@ def design_to_dict(d: Design) -> dict:
     return out
 
 
-def design_from_dict(data: dict, source: str = "design") -> Design:
-    """Build a design from a dict such as ``design_to_dict`` writes (unknown keys are errors).
-
-    ``material`` may be a preset name ("delrin", "abs") or a table with name, E_MPa, nu.
-    ``hinge_set`` alone sets the thicknesses of a named set. Without ``phi2_deg`` the design
-    is the basis body (TOML has no null).
-    """
-    data = dict(data)
-    data.setdefault("phi2_deg", None)
-    known = {f.name for f in dataclasses.fields(Design)}
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise ParameterError(f"{source}: unknown key(s) {', '.join(unknown)}; known keys: {', '.join(sorted(known))}")
-    mat = data.get("material")
+def _material_from(mat) -> Material:
+    """A material from a preset name or a table with name, E_MPa and nu."""
     if isinstance(mat, str):
         if mat not in MATERIALS:
             raise ParameterError(f"material = {mat!r}: unknown; choose one of {', '.join(MATERIALS)} or give a table")
-        data["material"] = MATERIALS[mat]
-    elif isinstance(mat, dict):
-        missing = [k for k in ("name", "E_MPa", "nu") if k not in mat]
-        if missing:
-            raise ParameterError(f"material table lacks {missing[0]!r} (needs name, E_MPa, nu)")
-        unknown_m = sorted(set(mat) - {"name", "E_MPa", "nu", "allowable_stress_MPa"})
-        if unknown_m:
-            raise ParameterError(f"material table: unknown key(s) {', '.join(unknown_m)}; known keys: "
-                                 "name, E_MPa, nu, allowable_stress_MPa")
-        for k in ("E_MPa", "nu", "allowable_stress_MPa"):
-            if k in mat and not _is_number(mat[k]):
-                raise ParameterError(f"material {k} = {mat[k]!r}: must be a number")
-        data["material"] = Material(str(mat["name"]), float(mat["E_MPa"]), float(mat["nu"]),
-                                    float(mat.get("allowable_stress_MPa", math.inf)))
+        return MATERIALS[mat]
+    if not isinstance(mat, dict):
+        raise ParameterError(f"material = {mat!r}: must be a name ({', '.join(MATERIALS)}) or a "
+                             "table with name, E_MPa, nu")
+    missing = [k for k in ("name", "E_MPa", "nu") if k not in mat]
+    if missing:
+        raise ParameterError(f"material table lacks {missing[0]!r} (needs name, E_MPa, nu)")
+    unknown = sorted(set(mat) - {"name", "E_MPa", "nu", "allowable_stress_MPa"})
+    if unknown:
+        raise ParameterError(f"material table: unknown key(s) {', '.join(unknown)} "
+                             "(known: name, E_MPa, nu, allowable_stress_MPa)")
+    for k in ("E_MPa", "nu", "allowable_stress_MPa"):
+        if k in mat and not (is_real(mat[k]) or (k == "allowable_stress_MPa" and mat[k] == math.inf)):
+            raise ParameterError(f"material {k} = {mat[k]!r}: must be a number")
+    if not is_stem(mat["name"]):
+        raise ParameterError(f"material name = {mat['name']!r}: must be {STEM_RULE}")
+    return Material(mat["name"], float(mat["E_MPa"]), float(mat["nu"]),
+                    float(mat.get("allowable_stress_MPa", math.inf)))
+
+
+def design_from_dict(data: dict, source: str = "design") -> Design:
+    """Build a design from a dict such as ``design_to_dict`` writes (unknown keys are errors).
+
+    ``body`` is "basis" (no ``phi2_deg``) or "proposed" (the default; ``phi2_deg`` is then
+    required). A ``phi2_deg`` of None (from Python) also means the basis. ``material`` may
+    be a preset name ("delrin", "abs") or a table with name, E_MPa, nu. ``hinge_set`` alone
+    sets the thicknesses of a named set.
+    """
+    if not isinstance(data, dict):
+        raise ParameterError(f"{source}: the design must be a table of fields, got {type(data).__name__}")
+    data = dict(data)
+    body = data.pop("body", None)
+    known = {f.name for f in dataclasses.fields(Design)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ParameterError(f"{source}: unknown key(s) {', '.join(map(str, unknown))}; known keys: "
+                             f"body, {', '.join(sorted(known))}")
+    if body is not None and body not in BODIES:
+        raise ParameterError(f"{source}: body = {body!r}: must be one of {', '.join(BODIES)}")
+    if body == "basis" and data.get("phi2_deg") is not None:
+        raise ParameterError(f"{source}: phi2_deg = {data['phi2_deg']!r}: the basis body has no "
+                             "middle branch (drop phi2_deg or set body = \"proposed\")")
+    phi2_missing = "phi2_deg" not in data and body != "basis"
+    data.setdefault("phi2_deg", None)
+    if "material" in data:
+        data["material"] = _material_from(data["material"])
     if "hinge_thickness_mm" in data:
         t = data["hinge_thickness_mm"]
-        if not isinstance(t, (list, tuple)) or not all(_is_number(v) for v in t):
+        if not isinstance(t, (list, tuple)) or not all(is_real(v) for v in t):
             raise ParameterError(f"hinge_thickness_mm = {t!r}: must be a list of {N_HINGES} numbers "
                                  "(mm, hinges 1-12)")
         data["hinge_thickness_mm"] = tuple(float(v) for v in t)
     elif "hinge_set" in data:
         data["hinge_thickness_mm"] = hinge_set_thicknesses(data["hinge_set"])
-    try:
-        return Design(**data)
-    except TypeError as exc:
-        raise ParameterError(f"{source}: {exc}") from None
+    design = Design(**data)  # every key is a field: checks types and ranges of each
+    if phi2_missing:
+        raise ParameterError(f"{source}: phi2_deg is missing: the proposed body needs it "
+                             "(or set body = \"basis\" for the body without middle branch)")
+    return design
 
 
 def load_design(path: str | Path) -> Design:
@@ -252,9 +280,14 @@ def load_design(path: str | Path) -> Design:
     try:
         with path.open("rb") as fh:
             data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise GeometryError(f"{path}: malformed TOML: {exc}") from None
-    return design_from_dict(data.get("design", data), source=str(path))
+    if "design" in data:
+        others = sorted(set(data) - {"design"})
+        if others:
+            raise ParameterError(f"{path}: key(s) {', '.join(others)} outside the [design] table")
+        data = data["design"]
+    return design_from_dict(data, source=str(path))
 
 
 def save_design(design: Design, path: str | Path) -> None:

@@ -26,13 +26,16 @@ travel is measured along it.
 from __future__ import annotations
 
 import json
+import math
+import reprlib
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from geometry.errors import GeometryError
 from geometry.layout import Layout, make_layout, member_chain, side_members
-from geometry.params import Design
+from geometry.params import MAX_LENGTH_MM, Design
+from geometry.validation import Number, is_integer, is_real
 
 SCHEMA = "dacm-beam-model/1"
 MEMBER_KINDS = ("hinge", "link", "rigid")
@@ -210,59 +213,119 @@ def model_to_dict(model: BeamModel) -> dict:
     }
 
 
+_MODEL_KEYS = {"schema", "units", "material", "nodes", "members", "supports", "input", "output"}
+_MEMBER_KEYS = {"kind", "start", "end", "thickness_mm", "depth_mm", "hinge", "name"}
+_COORD = Number(-MAX_LENGTH_MM, MAX_LENGTH_MM, unit="mm")
+_SIZE = Number(0.0, MAX_LENGTH_MM, lo_open=True, unit="mm")
+#: Largest model accepted (nodes or members): the designs have a few dozen.
+MAX_MODEL_ITEMS = 10_000
+
+
 def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
-    """Read a beam model from a schema ``dacm-beam-model/1`` dict, checking it as it goes."""
+    """Read a beam model from a schema ``dacm-beam-model/1`` dict, checking every field:
+    types, finiteness, ranges, node indices (integers, not truncated), no unknown keys.
+    Raises :class:`GeometryError` naming the field, the value and the rule."""
     def fail(msg):
         raise GeometryError(f"{source}: {msg}")
 
-    if data.get("schema") != SCHEMA:
-        fail(f"schema = {data.get('schema')!r}: expected {SCHEMA!r}")
-    try:
-        nodes = np.asarray(data["nodes"], dtype=float)
-        mem = data["members"]
-        mat = data["material"]
-        supports = tuple((int(s["node"]), tuple(s["dofs"])) for s in data["supports"])
-        inp, out = data["input"], data["output"]
-    except (KeyError, TypeError, ValueError) as exc:
-        fail(f"missing or malformed field: {exc}")
-    if nodes.ndim != 2 or nodes.shape[1] != 2 or len(nodes) < 2:
-        fail(f"nodes must be a list of [x, y] pairs, got shape {nodes.shape}")
+    def table(value, name, keys, required):
+        if not isinstance(value, dict):
+            fail(f"{name} = {reprlib.repr(value)}: must be a JSON object")
+        unknown = sorted(set(value) - keys)
+        if unknown:
+            fail(f"{name}: unknown key(s) {', '.join(map(str, unknown))}; known: {', '.join(sorted(keys))}")
+        missing = [k for k in required if k not in value]
+        if missing:
+            fail(f"{name}: missing {missing[0]!r}")
+        return value
+
+    def items(value, name):
+        if value == [] and name == "supports":
+            fail("no support: the model would move as a rigid body")
+        if not isinstance(value, list) or not 0 < len(value) <= MAX_MODEL_ITEMS:
+            fail(f"{name} = {reprlib.repr(value)}: must be a non-empty list of at most {MAX_MODEL_ITEMS} entries")
+        return value
+
+    def number(value, name, rule):
+        if not rule.ok(value):
+            fail(f"{name} = {reprlib.repr(value)}: must be {rule.rule}")
+        return float(value)
+
+    def index(value, name, n):
+        if not (is_integer(value) and 0 <= value < n):
+            fail(f"{name} = {value!r}: must be an integer node index in [0, {n})")
+        return int(value)
+
+    def direction(value, name):
+        if not (isinstance(value, list) and len(value) == 2 and all(is_real(v) for v in value)
+                and 1e-9 < math.hypot(*value) < math.inf):
+            fail(f"{name} = {value!r}: must be a non-zero [dx, dy] of finite numbers")
+        return _unit(value)
+
+    table(data, "model", _MODEL_KEYS, sorted(_MODEL_KEYS - {"units"}))
+    if data["schema"] != SCHEMA:
+        fail(f"schema = {data['schema']!r}: expected {SCHEMA!r}")
+    mat = table(data["material"], "material", {"name", "E_MPa", "nu"}, ("E_MPa", "nu"))
+    E = number(mat["E_MPa"], "material E_MPa", Number(0.0, 1e7, lo_open=True, unit="MPa"))
+    nu = number(mat["nu"], "material nu", Number(0.0, 0.5, hi_open=True))
+    nodes = []
+    for i, p in enumerate(items(data["nodes"], "nodes")):
+        if not (isinstance(p, list) and len(p) == 2):
+            fail(f"node {i} = {p!r}: must be [x, y] in mm")
+        nodes.append([number(v, f"node {i} {c}", _COORD) for v, c in zip(p, "xy")])
     n = len(nodes)
-    for i, mbr in enumerate(mem):
-        if mbr.get("kind") not in MEMBER_KINDS:
-            fail(f"member {i} kind = {mbr.get('kind')!r}: must be one of {MEMBER_KINDS}")
-        for end in ("start", "end"):
-            if not (0 <= int(mbr[end]) < n):
-                fail(f"member {i} {end} = {mbr[end]}: must be a node index in [0, {n})")
-        if mbr["start"] == mbr["end"]:
-            fail(f"member {i}: start and end are the same node")
-        if mbr["kind"] != "rigid" and not (mbr["thickness_mm"] > 0 and mbr["depth_mm"] > 0):
-            fail(f"member {i} thickness/depth must be positive")
-    for node, dofs in supports:
-        if not (0 <= node < n) or not set(dofs) <= set(DOF_NAMES):
-            fail(f"support at node {node} with dofs {dofs}: node must exist, dofs in {DOF_NAMES}")
-    if not supports:
-        fail("no support: the model would move as a rigid body")
-    for port, p in (("input", inp), ("output", out)):
-        if not (0 <= int(p["node"]) < n):
-            fail(f"{port} node = {p['node']}: must be a node index in [0, {n})")
-    if not (float(mat["E_MPa"]) > 0 and 0 <= float(mat["nu"]) < 0.5):
-        fail(f"material E_MPa = {mat['E_MPa']}, nu = {mat['nu']}: need E > 0 and 0 <= nu < 0.5")
+    if n < 2:
+        fail(f"nodes: {n} node; a model needs at least 2")
+    members = []
+    for i, m in enumerate(items(data["members"], "members")):
+        table(m, f"member {i}", _MEMBER_KEYS, ("kind", "start", "end"))
+        if m["kind"] not in MEMBER_KINDS:
+            fail(f"member {i} kind = {m['kind']!r}: must be one of {', '.join(MEMBER_KINDS)}")
+        start, end = (index(m[k], f"member {i} {k}", n) for k in ("start", "end"))
+        if math.dist(nodes[start], nodes[end]) < 1e-9:
+            fail(f"member {i}: start node {start} and end node {end} are at the same point "
+                 "(a member needs a length)")
+        size = {}
+        for k in ("thickness_mm", "depth_mm"):
+            if m["kind"] != "rigid" or k in m:
+                if k not in m:
+                    fail(f"member {i}: missing {k!r} (a {m['kind']} needs it)")
+                size[k] = number(m[k], f"member {i} {k}", _SIZE)
+        hinge = m.get("hinge", 0)
+        if not (is_integer(hinge) and 0 <= hinge <= 99):
+            fail(f"member {i} hinge = {hinge!r}: must be an integer hinge number (0 if none)")
+        name = m.get("name", f"member {i}")
+        if not isinstance(name, str):
+            fail(f"member {i} name = {name!r}: must be a string")
+        members.append((m["kind"], start, end, size.get("thickness_mm", 0.0),
+                        size.get("depth_mm", 0.0), int(hinge), name))
+    supports = []
+    for i, sp in enumerate(items(data["supports"], "supports")):
+        table(sp, f"support {i}", {"node", "dofs"}, ("node", "dofs"))
+        dofs = sp["dofs"]
+        if not (isinstance(dofs, list) and dofs and all(isinstance(d, str) and d in DOF_NAMES for d in dofs)):
+            fail(f"support {i} dofs = {dofs!r}: must be a non-empty list from {', '.join(DOF_NAMES)}")
+        supports.append((index(sp["node"], f"support {i} node", n), tuple(dofs)))
+    ports = {}
+    for port in ("input", "output"):
+        p = table(data[port], port, {"node", "direction"}, ("node", "direction"))
+        ports[port] = (index(p["node"], f"{port} node", n), direction(p["direction"], f"{port} direction"))
+    kind, start, end, thick, depth, hinge, name = zip(*members)
     return BeamModel(
-        nodes=nodes,
-        member_nodes=np.array([[int(m_["start"]), int(m_["end"])] for m_ in mem], dtype=int),
-        member_kind=tuple(m_["kind"] for m_ in mem),
-        thickness_mm=np.array([float(m_.get("thickness_mm", 0.0)) for m_ in mem]),
-        depth_mm=np.array([float(m_.get("depth_mm", 0.0)) for m_ in mem]),
-        hinge_number=np.array([int(m_.get("hinge", 0)) for m_ in mem], dtype=int),
-        member_name=tuple(str(m_.get("name", f"member {i}")) for i, m_ in enumerate(mem)),
-        supports=supports,
-        input_node=int(inp["node"]),
-        input_direction=_unit(inp["direction"]),
-        output_node=int(out["node"]),
-        output_direction=_unit(out["direction"]),
-        E_MPa=float(mat["E_MPa"]),
-        nu=float(mat["nu"]),
+        nodes=np.array(nodes, dtype=float),
+        member_nodes=np.array([start, end], dtype=int).T.reshape(-1, 2),
+        member_kind=kind,
+        thickness_mm=np.array(thick),
+        depth_mm=np.array(depth),
+        hinge_number=np.array(hinge, dtype=int),
+        member_name=name,
+        supports=tuple(supports),
+        input_node=ports["input"][0],
+        input_direction=ports["input"][1],
+        output_node=ports["output"][0],
+        output_direction=ports["output"][1],
+        E_MPa=E,
+        nu=nu,
         material_name=str(mat.get("name", "custom")),
     )
 
@@ -274,8 +337,8 @@ def model_to_json(model: BeamModel) -> str:
 def load_model(path) -> BeamModel:
     """Read a beam-model JSON file."""
     try:
-        with open(path) as fh:
+        with open(path, "rb") as fh:
             data = json.load(fh)
-    except json.JSONDecodeError as exc:
-        raise GeometryError(f"{path}: malformed JSON: {exc}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+        raise GeometryError(f"{path}: malformed JSON: {str(exc).splitlines()[0][:200]}") from None
     return model_from_dict(data, source=str(path))

@@ -67,3 +67,27 @@ class SnapThroughError(InstabilityError):
 
 class CapacityWarning(UserWarning):
     """A reference asks for more force than the actuator (or sensor) can give."""
+
+
+class ClusterLostError(SensorError, RuntimeError):
+    """The Dask cluster went away (every worker, or the scheduler) during a sweep; the cells
+    finished so far are checkpointed and ``resume`` completes the sweep."""
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C or SIGTERM stopped a sweep after its finished cells were checkpointed. Not an
+    error of the input: a KeyboardInterrupt that says how far the sweep got, for the one
+    line the command prints; ``signum`` is the signal (SIGINT or SIGTERM)."""
+
+    def __init__(self, message: str, signum: int):
+        super().__init__(message)
+        self.signum = signum
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread like Ctrl-C's KeyboardInterrupt, so that every
+    command stops the same orderly way (checkpoint, one line, exit status 143)."""
+
+
+class ResourceNote(UserWarning):
+    """A request the tool changed to fit the machine (e.g. more workers than cores)."""

@@ -3,20 +3,25 @@
 Each command module exposes ``register(subparsers)``, which adds its parser and sets
 ``func(args) -> int``. Errors caused by the user's input (the project's own error classes,
 malformed TOML, files that cannot be read or written) print one line and exit with status 2;
-anything else is a bug and keeps its traceback.
+anything else is a bug and keeps its traceback. Ctrl-C (SIGINT) and SIGTERM stop any command
+with one line and exit status 130 or 143 (a sweep saves its checkpoint first); warnings are
+printed as one line each.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
+import signal
 import sys
 import tomllib
+import warnings
 
 from geometry.errors import GeometryError
 from mri.errors import MriError
-from sensor.errors import SensorError
+from sensor.errors import ResourceNote, SensorError, SweepInterrupted, Terminated
 
 #: Command modules, in the order ``dacm --help`` lists them.
 COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "sensor", "measure", "report",
@@ -46,17 +51,61 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(text) -> str:
+    """A message on one line (library messages sometimes span several)."""
+    return " ".join(str(text).split())
+
+
+@contextlib.contextmanager
+def _orderly_stops(command: str):
+    """SIGTERM raises :class:`Terminated` like Ctrl-C raises KeyboardInterrupt, and each
+    warning prints as one line ``dacm COMMAND: warning|note: ...`` (restored on exit)."""
+    def show(message, category, *_args, **_kwargs):
+        kind = "note" if issubclass(category, ResourceNote) else "warning"
+        print(f"dacm {command}: {kind}: {_one_line(message)}", file=sys.stderr)
+
+    def terminate(signum, _frame):
+        raise Terminated(signum)
+
+    in_main = _is_main_thread()
+    previous = signal.signal(signal.SIGTERM, terminate) if in_main else None
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        warnings.showwarning = show
+        try:
+            yield
+        finally:
+            if in_main:
+                signal.signal(signal.SIGTERM, previous)
+
+
+def _is_main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    command = None
     try:
-        return int(args.func(args) or 0)
+        args = build_parser().parse_args(argv)
+        command = args.command
+        with _orderly_stops(command):
+            return int(args.func(args) or 0)
     except BrokenPipeError:
         # the reader went away (e.g. `dacm ... | head`): stop quietly, as a filter should
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except SweepInterrupted as exc:
+        print(f"dacm {command}: {_one_line(exc)}", file=sys.stderr)
+        return 128 + exc.signum
+    except KeyboardInterrupt as exc:
+        term = isinstance(exc, Terminated)
+        print(f"dacm{' ' + command if command else ''}: interrupted ({'SIGTERM' if term else 'SIGINT'})",
+              file=sys.stderr)
+        return 128 + (signal.SIGTERM if term else signal.SIGINT)
     except USER_ERRORS as exc:
-        print(f"dacm {args.command}: error: {exc}", file=sys.stderr)
+        print(f"dacm {command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
 
 

@@ -9,6 +9,7 @@ a thesis preset (``--preset sample-a``), or a TOML file (``--config design.toml`
 from __future__ import annotations
 
 import argparse
+import re
 from pathlib import Path
 
 from geometry.params import (
@@ -21,6 +22,7 @@ from geometry.params import (
     preset,
 )
 from sensor.errors import UsageError
+from sensor.validation import Number, check_fields
 
 DESIGN_KINDS = ("basis", "proposed")
 DEFAULT_PHI1_DEG, DEFAULT_PHI2_DEG, DEFAULT_HINGES = 22.0, 17.2, "05-03"
@@ -44,11 +46,11 @@ def add_design_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _flag_design(args: argparse.Namespace) -> Design:
-    kind = args.design or "proposed"
+    kind = "proposed" if args.design is None else args.design
     if kind not in DESIGN_KINDS:
         raise UsageError(f"--design = {kind!r}: must be one of {', '.join(DESIGN_KINDS)}")
     phi1 = DEFAULT_PHI1_DEG if args.phi1 is None else args.phi1
-    hinges = args.hinges or DEFAULT_HINGES
+    hinges = DEFAULT_HINGES if args.hinges is None else args.hinges
     if kind == "basis":
         if args.phi2 is not None:
             raise UsageError(f"--phi2 = {args.phi2:g}: the basis body has no middle branch "
@@ -56,6 +58,11 @@ def _flag_design(args: argparse.Namespace) -> Design:
         return make_design(phi1, None, hinges, name=f"basis-{phi1:g}-{hinges}")
     phi2 = DEFAULT_PHI2_DEG if args.phi2 is None else args.phi2
     return make_design(phi1, phi2, hinges, name=f"proposed-{phi1:g}-{phi2:g}-{hinges}")
+
+
+def _stem(text: str) -> str:
+    """A file name's stem made safe as a design name (other characters become '_')."""
+    return re.sub(r"[^A-Za-z0-9._-]", "_", text).lstrip(".") or "custom"
 
 
 def design_from_args(args: argparse.Namespace) -> Design:
@@ -76,7 +83,7 @@ def design_from_args(args: argparse.Namespace) -> Design:
     elif args.config is not None:
         design = load_design(args.config)
         if design.name == "custom":
-            design = design.replace(name=args.config.stem)
+            design = design.replace(name=_stem(args.config.stem))
     else:
         design = _flag_design(args)
     if args.material is not None:
@@ -86,3 +93,14 @@ def design_from_args(args: argparse.Namespace) -> Design:
             design = design.replace(material=MATERIALS[args.material],
                                     name=f"{design.name}-{args.material}")
     return design
+
+
+def check_flags(args: argparse.Namespace, rules: dict[str, Number]) -> None:
+    """Check numeric flags by their declared rules (a flag not given is skipped); raise
+    :class:`~sensor.errors.UsageError` naming ``--flag``, the value and the rule."""
+    check_fields(args, rules, UsageError, prefix="--", skip_none=True)
+
+
+def travel_rule(size_mm: float) -> Number:
+    """The rule of a target output travel: positive, at most the body's size (mm)."""
+    return Number(0.0, float(size_mm), lo_open=True, unit="mm, at most the body's size")

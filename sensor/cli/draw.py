@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 from geometry.atomic import save_figure
 from geometry.checks import assert_feasible
-from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
 from sensor.errors import UsageError
+from sensor.validation import Number
 
 IMAGE_FORMATS = ("png", "svg")
+#: Rule of --dpi: a 6-inch figure at 1200 dpi is 7200 px wide.
+DPI_RULE = Number(10.0, 1200.0, unit="dots per inch")
 
 
 def register(subparsers) -> None:
@@ -32,8 +34,7 @@ def run(args: argparse.Namespace) -> int:
     fmt = args.out.suffix.lower().lstrip(".")
     if fmt not in IMAGE_FORMATS:
         raise UsageError(f"--out = {str(args.out)!r}: must end in .png or .svg")
-    if not (math.isfinite(args.dpi) and args.dpi > 0):
-        raise UsageError(f"--dpi = {args.dpi:g}: must be a positive number")
+    check_flags(args, {"dpi": DPI_RULE})
     design = design_from_args(args)
     assert_feasible(design)
     save_figure(profile_figure(design), args.out, dpi=args.dpi)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sensor.cli.design_args import add_design_arguments, design_from_args
+from geometry.params import FIELD_RULES
+from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
 
 
 def register(subparsers) -> None:
@@ -32,6 +33,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from geometry.export import FORMATS, export_design  # CadQuery: load only when used
 
+    check_flags(args, {"kerf": FIELD_RULES["kerf_mm"]})
     design = design_from_args(args)
     if args.kerf is not None:
         design = design.replace(kerf_mm=args.kerf)

@@ -4,11 +4,16 @@ strain energy density (pyvista, off-screen; works without a display)."""
 from __future__ import annotations
 
 import argparse
-import math
 import re
 from pathlib import Path
 
-from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.design_args import (
+    add_design_arguments,
+    check_flags,
+    design_from_args,
+    travel_rule,
+)
+from sensor.validation import Number, require_finite
 
 DEFAULT_OUT_DIR = Path("dacm-out")
 DEFAULT_WINDOW = (1600, 1200)
@@ -57,20 +62,19 @@ def run(args: argparse.Namespace) -> int:
     from sensor.mechanics.render import deformed_body, render_png
     from sensor.mechanics.solver import solve
 
-    if not (math.isfinite(args.target_output) and args.target_output > 0):
-        raise UsageError(f"--target-output = {args.target_output:g}: must be a positive "
-                             "number of mm")
-    if args.scale is not None and not (math.isfinite(args.scale) and args.scale > 0):
-        raise UsageError(f"--scale = {args.scale:g}: must be a positive number")
+    check_flags(args, {"scale": Number(0.0, 1e6, lo_open=True)})
     if args.out is not None and args.out.suffix.lower() != ".png":
         raise UsageError(f"--out = {str(args.out)!r}: must end in .png")
     window = parse_window_size(args.window_size)
     design = design_from_args(args)
+    check_flags(args, {"target_output": travel_rule(design.height_mm)})
     assert_feasible(design)
     out = args.out or DEFAULT_OUT_DIR / f"{design.name}-render.png"
 
     model = build_beam_model(design)
     result = solve(model, target_output_mm=args.target_output)
+    require_finite(f"solve of {design.name}", {k: getattr(result, k) for k in (
+        "output_travel_mm", "input_force_N", "amplification", "strain_energy_mJ")})
     body = deformed_body(design, model, result, make_parts(make_layout(design)), args.scale)
     title = (f"{design.name}: output travel {result.output_travel_mm:.2f} mm "
              f"at input force {result.input_force_N:.2f} N")

@@ -8,7 +8,16 @@ import dataclasses
 import json
 from pathlib import Path
 
-from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
+from sensor.validation import Number, require_finite
+
+#: Rules of the numeric flags.
+RULES = {"full_scale": Number(0.0, 1000.0, lo_open=True, unit="mm"),
+         "sample_rate": Number(0.0, 1e7, lo_open=True, unit="Hz"),
+         "adc_bits": Number(1, 32, integer=True),
+         "na": Number(0.0, 1.0, lo_open=True),
+         "tolerance": Number(0.0, 100.0, lo_open=True, unit="% FS")}
+ADC_VOLTS = Number(-1e3, 1e3, unit="V")
 
 
 def register(subparsers) -> None:
@@ -57,6 +66,9 @@ def run(args: argparse.Namespace) -> int:
     from sensor.readout.plots import calibration_figure, intensity_figure
     from sensor.readout.sensor_model import CALIBRATIONS, Readout, build_sensor
 
+    check_flags(args, RULES)
+    for v in args.adc_range:
+        ADC_VOLTS.check("--adc-range", v, UsageError)
     design = design_from_args(args)
     assert_feasible(design)
     if args.calibration not in CALIBRATIONS:
@@ -66,12 +78,12 @@ def run(args: argparse.Namespace) -> int:
     readout = Readout(sample_rate_Hz=args.sample_rate, adc_bits=args.adc_bits,
                       adc_min_V=args.adc_range[0], adc_max_V=args.adc_range[1],
                       mode=args.readout, model=args.optics_model)
-    if not args.tolerance > 0:
-        raise UsageError(f"--tolerance = {args.tolerance!r}: must be a positive number (%)")
     sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
                           calibration=args.calibration)
     ds = datasheet(sensor, material=design.material.name)
     cross = cross_axis(design, sensor.input_travel_mm)
+    values = {**dataclasses.asdict(ds), **{f"cross_axis {k}": v for k, v in dataclasses.asdict(cross).items()}}
+    require_finite(f"datasheet of {design.name}", values)
     files = []
     if not args.no_plots:
         args.out.mkdir(parents=True, exist_ok=True)

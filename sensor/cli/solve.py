@@ -6,7 +6,17 @@ import argparse
 import json
 from pathlib import Path
 
-from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.design_args import (
+    add_design_arguments,
+    check_flags,
+    design_from_args,
+    travel_rule,
+)
+from sensor.validation import Number, require_finite
+
+#: Rules of the numeric flags (the target travel's depends on the body, see run).
+RULES = {"increments": Number(1, 1000, integer=True),
+         "target_force": Number(0.0, 1e5, lo_open=True, unit="N")}
 
 
 def register(subparsers) -> None:
@@ -32,6 +42,8 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from geometry.checks import assert_feasible
     from geometry.layout import kinematic_amplification
     from geometry.topology import build_beam_model, load_model
@@ -40,19 +52,20 @@ def run(args: argparse.Namespace) -> int:
     from sensor.mechanics.qualifiers import qualify
     from sensor.mechanics.solver import SolverOptions, solve
 
-    if args.increments < 1:
-        raise UsageError(f"--increments = {args.increments}: must be at least 1")
+    check_flags(args, RULES)
     if args.model is not None:
         shape = [f for f in ("design", "phi1", "phi2", "hinges", "preset", "config")
                  if getattr(args, f) is not None]
         if shape:
             raise UsageError(f"--model cannot be combined with --{shape[0]}")
         model, name, a_kin = load_model(args.model), args.model.stem, None
+        size = float(np.ptp(model.nodes, axis=0).max())
     else:
         design = design_from_args(args)
         assert_feasible(design)
-        model, name = build_beam_model(design), design.name
+        model, name, size = build_beam_model(design), design.name, design.height_mm
         a_kin = kinematic_amplification(design.phi1_deg, design.phi2_deg)
+    check_flags(args, {"target_output": travel_rule(size)})
     r = solve(model, target_output_mm=args.target_output, target_force_N=args.target_force,
               options=SolverOptions(increments=args.increments))
     q = qualify(r, DEFAULT_LAW)
@@ -74,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         "converged": r.converged,
         "hinge_rotation_deg": {str(k): v for k, v in r.hinge_rotation_deg.items()},
     }
+    require_finite(f"solve of {name}", out)
     if args.json:
         print(json.dumps(out, indent=1))
         return 0

@@ -45,15 +45,18 @@ def register(subparsers) -> None:
 def spec_from_args(args: argparse.Namespace):
     """The sweep settings: defaults, then the TOML file, then the flags."""
     from geometry.errors import GeometryError
+    from sensor.design_space.execution import check_run_options
     from sensor.design_space.spec import Grid, SweepSpec
     from sensor.errors import SweepError
+    from sensor.validation import is_integer, is_real
 
+    check_run_options(args.workers, args.scheduler)  # before anything is made in --out
     cfg: dict = {}
     if args.config is not None:
         try:
             with open(args.config, "rb") as fh:
                 cfg = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise SweepError(f"{args.config}: malformed TOML: {exc}") from None
         known = {"hinges", "phi1", "phi2", "target_output_mm", "monte_carlo", "hinge_sd_mm", "seed", "design"}
         unknown = sorted(set(cfg) - known)
@@ -63,16 +66,15 @@ def spec_from_args(args: argparse.Namespace):
     hinges = args.hinges if args.hinges is not None else cfg.get("hinges", list(d.hinge_sets))
     if isinstance(hinges, str):
         hinges = [hinges]
-    if not isinstance(hinges, list) or not hinges:
+    if not isinstance(hinges, list) or not hinges or not all(isinstance(h, str) for h in hinges):
         raise SweepError(f"hinges = {hinges!r}: must name at least one hinge set (05-03, 03-03)")
-    phi1 = Grid.parse(args.phi1, "--phi1") if args.phi1 else (Grid.parse(cfg["phi1"], "phi1") if "phi1" in cfg else d.phi1)
-    phi2 = Grid.parse(args.phi2, "--phi2") if args.phi2 else (Grid.parse(cfg["phi2"], "phi2") if "phi2" in cfg else d.phi2)
+    phi1 = Grid.parse(args.phi1, "--phi1") if args.phi1 is not None else (Grid.parse(cfg["phi1"], "phi1") if "phi1" in cfg else d.phi1)
+    phi2 = Grid.parse(args.phi2, "--phi2") if args.phi2 is not None else (Grid.parse(cfg["phi2"], "phi2") if "phi2" in cfg else d.phi2)
 
     def pick(flag, key, default, kind):
         value = flag if flag is not None else cfg.get(key, default)
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if not ok or (kind is int and value != int(value)):
-            raise SweepError(f"{key} = {value!r}: must be {'an integer' if kind is int else 'a number'}")
+        if not (is_integer(value) if kind is int else is_real(value)):
+            raise SweepError(f"{key} = {value!r}: must be {'an integer' if kind is int else 'a finite number'}")
         return kind(value)
 
     if not isinstance(cfg.get("design", {}), dict):

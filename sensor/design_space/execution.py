@@ -2,15 +2,29 @@
 atomically so that an interrupted run finishes with ``resume`` and computes nothing twice.
 
 A row's result does not depend on where it ran, so every scheduler gives the same dataset.
+
+Faults end a sweep in order, never with a hang or an orphan: Ctrl-C or SIGTERM
+(:class:`~sensor.errors.Terminated`) saves the checkpoint and raises
+:class:`~sensor.errors.SweepInterrupted`; local worker processes are stopped with the sweep
+and kill themselves if the sweep's process dies (even by SIGKILL); a Dask cluster that
+loses every worker, or its scheduler, for ``cluster_timeout_s`` raises
+:class:`~sensor.errors.ClusterLostError` after saving the checkpoint.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import re
+import signal
+import threading
 import time
+import warnings
 from pathlib import Path
 
 import xarray as xr
 
+from geometry.atomic import remove_stale_temps
 from sensor.design_space.dataset import (
     empty_dataset,
     load_dataset,
@@ -20,76 +34,217 @@ from sensor.design_space.dataset import (
 )
 from sensor.design_space.rows import solve_row
 from sensor.design_space.spec import SweepSpec
-from sensor.errors import SweepError
+from sensor.errors import (
+    ClusterLostError,
+    ResourceNote,
+    SweepError,
+    SweepInterrupted,
+    Terminated,
+)
+from sensor.validation import Number
+
+#: Seconds without any Dask worker (or without the scheduler) before a sweep gives up;
+#: with the 2 s the client takes to notice, a lost cluster ends the sweep within 20 s.
+CLUSTER_TIMEOUT_S = 10.0
+#: A Dask scheduler address: protocol://host[:port] or host:port.
+_ADDRESS = re.compile(r"[a-z][a-z0-9+]*://[A-Za-z0-9._\-\[\]:/]+|[A-Za-z0-9._\-\[\]]+:\d+")
+#: The variables that say which cells a checkpoint holds (named first when missing).
+_BOOKKEEPING = ("computed", "feasible", "reason", "basis_reason")
+_WORKERS = Number(0, 4096, integer=True)
+_TIMEOUT = Number(0.1, 3600.0, unit="s")
 
 
 def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, resume: bool = False,
               workers: int = 0, scheduler: str | None = None, progress=None,
-              checkpoint_s: float = 5.0) -> tuple[xr.Dataset, int]:
+              checkpoint_s: float = 5.0, cluster_timeout_s: float = CLUSTER_TIMEOUT_S,
+              ) -> tuple[xr.Dataset, int]:
     """Run (or finish) a sweep. Returns the dataset and the number of cells computed now.
 
-    ``workers`` = 0 picks the number of local cores; 1 runs serially in this process.
-    ``scheduler`` is a Dask distributed scheduler address. With ``resume`` the cells of an
-    existing dataset at ``dataset_path`` (same spec) are reused. The dataset is checkpointed
-    (atomically) every ``checkpoint_s`` seconds, so an interrupted run can be resumed.
+    ``workers`` = 0 picks the number of local cores (more than the cores are capped, with a
+    :class:`~sensor.errors.ResourceNote`); 1 runs serially in this process. ``scheduler`` is
+    a Dask distributed scheduler address. With ``resume`` the cells of an existing dataset
+    at ``dataset_path`` (same spec) are reused. The dataset is checkpointed (atomically)
+    every ``checkpoint_s`` seconds and when the sweep is stopped, so it can be resumed.
     """
-    ds = None
-    if resume and dataset_path is not None and dataset_path.exists():
-        ds = load_dataset(dataset_path)
-        if ds.attrs.get("spec") != spec.to_json():
-            raise SweepError(f"--resume: {dataset_path} was made with other parameters; "
-                             "use the same grid and settings, or another --out")
+    check_run_options(workers, scheduler, cluster_timeout_s)
+    if dataset_path is not None:
+        remove_stale_temps(dataset_path)
+    ds = _checkpoint(spec, dataset_path) if resume and dataset_path is not None else None
     if ds is None:
         ds = empty_dataset(spec, version)
     todo = rows_to_do(ds)
     n_cells = int(sum(m.sum() for _, _, m in todo))
+    done = 0
     if progress is not None:
         progress.start(n_cells)
     last = time.monotonic()
-    for row in _execute(spec, todo, workers, scheduler):
-        merge_row(ds, row)
+    try:
+        with contextlib.closing(_execute(spec, todo, workers, scheduler, cluster_timeout_s)) as rows:
+            for row in rows:
+                merge_row(ds, row)
+                done += int(row["computed"].sum())
+                if progress is not None:
+                    progress.advance(int(row["computed"].sum()))
+                if dataset_path is not None and time.monotonic() - last > checkpoint_s:
+                    save_dataset(ds, dataset_path)
+                    last = time.monotonic()
+    except (KeyboardInterrupt, ClusterLostError) as exc:
+        where = _save_checkpoint(ds, dataset_path, done)
+        what = f"after {done} of {n_cells} cells{where}; finish with --resume"
+        if isinstance(exc, ClusterLostError):
+            raise ClusterLostError(f"{exc}: stopped {what}") from None
+        signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
+        raise SweepInterrupted(f"interrupted {what}", signum) from None
+    finally:
         if progress is not None:
-            progress.advance(int(row["computed"].sum()))
-        if dataset_path is not None and time.monotonic() - last > checkpoint_s:
-            save_dataset(ds, dataset_path)
-            last = time.monotonic()
-    if progress is not None:
-        progress.stop()
+            progress.stop()
     return ds, n_cells
 
 
-def _execute(spec: SweepSpec, todo, workers: int, scheduler: str | None):
+def check_run_options(workers: int = 0, scheduler: str | None = None,
+                      cluster_timeout_s: float = CLUSTER_TIMEOUT_S) -> None:
+    """Check where a sweep is to run before anything is made; raise :class:`SweepError`."""
+    _WORKERS.check("--workers", workers, SweepError)
+    _TIMEOUT.check("cluster_timeout_s", cluster_timeout_s, SweepError)
+    if scheduler is not None and not (isinstance(scheduler, str) and _ADDRESS.fullmatch(scheduler)):
+        raise SweepError(f"--scheduler = {scheduler!r}: must be a Dask scheduler address "
+                         "protocol://host[:port] or host:port, e.g. tcp://10.0.0.5:8786")
+
+
+def _save_checkpoint(ds: xr.Dataset, path: Path | None, done: int) -> str:
+    """Save the finished cells of a stopped sweep; ' (saved in PATH)' or ''. A second
+    Ctrl-C during the save is deferred so the checkpoint is never left half-written."""
+    if path is None or not done:
+        return ""
+    handlers = {}
+    if threading.current_thread() is threading.main_thread():
+        handlers = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        save_dataset(ds, path)
+    finally:
+        for s, h in handlers.items():
+            signal.signal(s, h)
+    return f" (saved in {path})"
+
+
+def _checkpoint(spec: SweepSpec, path: Path) -> xr.Dataset | None:
+    """The dataset to resume from, or None if there is none yet; checks it is a sweep
+    dataset of this spec (every variable present, same settings) and names the file if not."""
+    if not path.exists():
+        return None
+
+    def unreadable(exc):
+        reason = " ".join(str(exc).split())[:160] or type(exc).__name__
+        return SweepError(f"--resume: {path} is not a readable sweep dataset ({reason}); "
+                          "remove it or use another --out")
+
+    try:  # h5py and xarray raise many kinds of error for a corrupt file
+        with xr.open_dataset(path, engine="h5netcdf") as raw:
+            names = set(raw.data_vars)
+    except Exception as exc:
+        raise unreadable(exc) from None
+    reference = empty_dataset(spec, "")
+    missing = sorted(set(reference.data_vars) - names, key=lambda v: (v not in _BOOKKEEPING, v))
+    if missing:
+        raise SweepError(f"--resume: {path} lacks {len(missing)} variable(s) of a sweep dataset "
+                         f"({', '.join(missing[:4])}{', ...' if len(missing) > 4 else ''}): not written "
+                         "by dacm sweep; remove it or use another --out")
+    try:
+        ds = load_dataset(path)
+    except Exception as exc:
+        raise unreadable(exc) from None
+    if ds.attrs.get("spec") != spec.to_json():
+        raise SweepError(f"--resume: {path} was made with other parameters; "
+                         "use the same grid and settings, or another --out")
+    if any(ds[v].shape != reference[v].shape for v in reference.data_vars):
+        raise SweepError(f"--resume: {path}: variable shapes differ from the grid of its settings")
+    return ds
+
+
+def local_workers(requested: int) -> int:
+    """Worker processes for ``requested`` (0: one per core), capped at the cores this process
+    may use, with a :class:`~sensor.errors.ResourceNote` when capped."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if requested > cores:
+        warnings.warn(f"workers = {requested}: more than the {cores} cores of this machine; "
+                      f"using {cores}", ResourceNote, stacklevel=3)
+    return min(requested or cores, cores)
+
+
+def _execute(spec: SweepSpec, todo, workers: int, scheduler: str | None, cluster_timeout_s: float):
     """Yield solved rows, computed serially, on local processes or on a Dask cluster."""
     if not todo:
         return
     if scheduler:
-        yield from _execute_dask(spec, todo, scheduler)
+        yield from _execute_dask(spec, todo, scheduler, lost_after_s=cluster_timeout_s)
         return
-    import os
-    n = workers or os.cpu_count() or 1
+    n = local_workers(workers)
     if n <= 1 or len(todo) == 1:
         for hinges, i, mask in todo:
             yield solve_row(spec, hinges, i, mask)
         return
+    import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
-    with ProcessPoolExecutor(max_workers=n, initializer=_single_thread_blas) as pool:
+
+    # fork: the workers are this process's own children, so they can watch it (a forkserver
+    # or spawn start would make them children of a helper process)
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("fork"),
+                               initializer=_worker_setup, initargs=(os.getpid(),))
+    try:
         futures = [pool.submit(solve_row, spec, h, i, m) for h, i, m in todo]
-        try:
-            for f in as_completed(futures):
-                yield f.result()
-        finally:
-            for f in futures:
-                f.cancel()
+        for f in as_completed(futures):
+            yield f.result()
+    finally:
+        _stop_pool(pool)
 
 
-def _single_thread_blas():
-    """Worker processes share the cores already: keep BLAS to one thread each."""
+def _stop_pool(pool) -> None:
+    """Shut a process pool down now: cancel what has not started and end the workers that
+    still run (a finished sweep's pool is idle; an interrupted one must not wait for rows)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        if p.is_alive():
+            p.terminate()
+    for p in processes:
+        p.join(timeout=5)
+
+
+def _worker_setup(parent_pid: int) -> None:
+    """In each worker: leave Ctrl-C and SIGTERM to the sweep's process (which stops the
+    workers), die with it whatever ends it, and keep BLAS to one thread."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _die_with_parent(parent_pid)
     from threadpoolctl import threadpool_limits
 
-    threadpool_limits(1)
+    threadpool_limits(1)  # the worker processes share the cores already
 
 
-def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0):
+def _die_with_parent(parent_pid: int) -> None:
+    """Make this process end when ``parent_pid`` does: the kernel's parent-death signal
+    (Linux prctl PR_SET_PDEATHSIG) where there is one, and a watcher thread that polls the
+    parent id (every 0.5 s) everywhere."""
+    with contextlib.suppress(OSError, AttributeError):
+        import ctypes
+
+        PR_SET_PDEATHSIG = 1
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    if os.getppid() != parent_pid:  # the parent died before the line above
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent_pid:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="dacm-parent-watch", daemon=True).start()
+
+
+def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
+                  lost_after_s: float = CLUSTER_TIMEOUT_S):
+    """Yield rows solved on a Dask cluster. Raises :class:`ClusterLostError` when the
+    cluster has had no worker, or the client no scheduler, for ``lost_after_s`` seconds."""
     try:
         from distributed import Client, as_completed
     except ImportError:
@@ -99,7 +254,70 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0):
     except (OSError, TimeoutError) as exc:
         raise SweepError(f"--scheduler = {address!r}: cannot reach the Dask scheduler within "
                          f"{timeout_s:g} s ({type(exc).__name__})") from None
-    with client:
+    except (ValueError, TypeError) as exc:
+        raise SweepError(f"--scheduler = {address!r}: not a Dask scheduler address "
+                         f"({' '.join(str(exc).split())[:120]})") from None
+    try:
         futures = [client.submit(solve_row, spec, h, i, m, pure=False) for h, i, m in todo]
-        for f in as_completed(futures):
-            yield f.result()
+        pending = as_completed(futures)
+        healthy = time.monotonic()
+        while not pending.is_empty():
+            batch = pending.next_batch(block=False)
+            for f in batch:
+                yield _dask_result(f, address)
+            fault = None if batch else _cluster_fault(client)
+            if fault is None:
+                healthy = time.monotonic()
+            elif time.monotonic() - healthy > lost_after_s:
+                raise ClusterLostError(f"--scheduler = {address!r}: {fault} for {lost_after_s:g} s")
+            else:
+                time.sleep(0.2)
+    except (OSError, TimeoutError) as exc:  # distributed's CommClosedError is an OSError
+        raise ClusterLostError(f"--scheduler = {address!r}: lost the scheduler "
+                               f"({type(exc).__name__})") from None
+    finally:
+        _close_client(client)
+
+
+def _dask_result(future, address: str) -> dict:
+    """A row from a finished future; a row the cluster lost (its workers kept dying) is a
+    lost cluster, any other error is the row's own."""
+    try:
+        return future.result()
+    except Exception as exc:
+        if type(exc).__module__.split(".")[0] == "distributed" or isinstance(exc, OSError):
+            what = ("lost the scheduler" if "connection-lost" in str(exc) or isinstance(exc, OSError)
+                    else "the workers running a row kept dying")
+            raise ClusterLostError(f"--scheduler = {address!r}: {what} ({type(exc).__name__})") from None
+        raise
+
+
+def _cluster_fault(client) -> str | None:
+    """What is wrong with the cluster now (None if it can run tasks)."""
+    if client.status != "running":
+        return "lost the scheduler"
+    try:
+        n = len(client.scheduler_info(n_workers=-1)["workers"])
+    except Exception:  # a scheduler going down fails the call in several ways
+        return "lost the scheduler"
+    return None if n else "no worker left"
+
+
+def _close_client(client) -> None:
+    """Close the client without waiting long on a scheduler that is gone, and without the
+    tracebacks distributed logs while it gives up reconnecting (its loggers are quiet
+    while the client closes)."""
+    import logging
+
+    loggers = [logging.getLogger(n) for n in list(logging.root.manager.loggerDict)
+               if n == "distributed" or n.startswith("distributed.")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        with contextlib.suppress(Exception), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            client.close(timeout=2)
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)

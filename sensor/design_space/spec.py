@@ -9,9 +9,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from geometry.errors import GeometryError
 from geometry.params import HINGE_SETS, Design, design_from_dict, hinge_set_thicknesses
 from sensor.errors import SweepError
 from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw
+from sensor.validation import Number, is_integer
+
+#: Bounds on a sweep's size, checked before anything is allocated: points per grid axis,
+#: cells of the whole sweep, and solves including Monte-Carlo draws (about a day on 2 cores).
+MAX_GRID_N = 2000
+MAX_CELLS = 250_000
+MAX_SOLVES = 10_000_000
+_ANGLE = Number(0.0, 90.0, lo_open=True, hi_open=True, unit="deg")
+_GRID_N = Number(1, MAX_GRID_N, integer=True)
+#: Rules of the numeric fields of :class:`SweepSpec` (named as in the sweep TOML).
+SPEC_RULES = {"monte_carlo": Number(0, 100_000, integer=True),
+              "hinge_sd_mm": Number(0.0, 1.0, unit="mm"),
+              "seed": Number(0, 2**63 - 1, integer=True)}
 
 
 @dataclass(frozen=True)
@@ -22,6 +36,11 @@ class Grid:
     stop: float
     n: int
 
+    def __post_init__(self):
+        self.check(self.start, self.stop, self.n, "Grid")
+        for name, kind in (("start", float), ("stop", float), ("n", int)):  # plain numbers
+            object.__setattr__(self, name, kind(getattr(self, name)))
+
     @classmethod
     def parse(cls, text: str, name: str) -> "Grid":
         parts = str(text).split(":")
@@ -31,15 +50,23 @@ class Grid:
             raise SweepError(f"{name} = {text!r}: must be START:STOP:N (degrees, degrees, count)") from None
         if len(parts) != 3:
             raise SweepError(f"{name} = {text!r}: must be START:STOP:N (degrees, degrees, count)")
-        return cls(start, stop, n).validated(name)
+        cls.check(start, stop, n, name)
+        return cls(start, stop, n)
+
+    @staticmethod
+    def check(start, stop, n, name: str) -> None:
+        """Raise :class:`SweepError` naming ``name`` unless START:STOP:N is a grid of angles."""
+        text = f"{start!r}:{stop!r}:{n!r}"
+        if is_integer(n) and n < 1:
+            raise SweepError(f"{name} = {text}: the grid is empty (N = {n}; need N >= 1)")
+        for field_, rule, value in (("START", _ANGLE, start), ("STOP", _ANGLE, stop), ("N", _GRID_N, n)):
+            if not rule.ok(value):
+                raise SweepError(f"{name} = {text}: {field_} = {value!r}: must be {rule.rule}")
+        if n > 1 and stop <= start:
+            raise SweepError(f"{name} = {text}: STOP must exceed START")
 
     def validated(self, name: str) -> "Grid":
-        if self.n < 1:
-            raise SweepError(f"{name} = {self}: the grid is empty (N = {self.n}; need N >= 1)")
-        if not (0 < self.start < 90 and 0 < self.stop < 90):
-            raise SweepError(f"{name} = {self}: angles must lie strictly between 0 and 90 degrees")
-        if self.n > 1 and self.stop <= self.start:
-            raise SweepError(f"{name} = {self}: STOP must exceed START")
+        self.check(self.start, self.stop, self.n, name)
         return self
 
     @property
@@ -65,22 +92,36 @@ class SweepSpec:
     law: StrainEnergyLaw = DEFAULT_LAW         # hysteresis from strain energy (section 6.2.5)
 
     def __post_init__(self):
+        if not (isinstance(self.hinge_sets, tuple) and self.hinge_sets):
+            raise SweepError(f"hinge_sets = {self.hinge_sets!r}: must be a non-empty tuple of "
+                             f"hinge set names ({', '.join(HINGE_SETS)})")
         for h in self.hinge_sets:
-            if h not in HINGE_SETS:
+            if not (isinstance(h, str) and h in HINGE_SETS):
                 raise SweepError(f"hinge set {h!r}: must be one of {', '.join(HINGE_SETS)}")
-        if not self.hinge_sets:
-            raise SweepError("no hinge set to sweep")
-        self.phi1.validated("--phi1")
-        self.phi2.validated("--phi2")
-        if not (np.isfinite(self.target_output_mm) and self.target_output_mm > 0):
-            raise SweepError(f"--target-output = {self.target_output_mm!r}: must be a positive number of mm")
-        if self.monte_carlo < 0:
-            raise SweepError(f"--monte-carlo = {self.monte_carlo}: must be >= 0")
+        for name, grid in (("phi1", self.phi1), ("phi2", self.phi2)):
+            if not isinstance(grid, Grid):
+                raise SweepError(f"{name} = {grid!r}: must be a Grid (START:STOP:N)")
+            grid.validated(f"--{name}")
+        for name, rule in SPEC_RULES.items():  # numpy scalars become the plain numbers they hold
+            object.__setattr__(self, name, rule.check(name, getattr(self, name), SweepError))
+        cells = len(self.hinge_sets) * self.phi1.n * (self.phi2.n + 1)
+        if cells > MAX_CELLS or cells * max(1, self.monte_carlo) > MAX_SOLVES:
+            raise SweepError(f"sweep size = {len(self.hinge_sets)} hinge sets x {self.phi1.n} x "
+                             f"{self.phi2.n} cells x {max(1, self.monte_carlo)} draws: must be at most "
+                             f"{MAX_CELLS} cells and {MAX_SOLVES:.0e} solves")
         if self.monte_carlo and not self.hinge_sd_mm > 0:
             raise SweepError(f"--hinge-sd = {self.hinge_sd_mm!r}: must be > 0 mm with --monte-carlo")
         if not isinstance(self.law, StrainEnergyLaw):
             raise SweepError(f"law = {self.law!r}: must be a StrainEnergyLaw")
-        self.design("05-03", 20.0, None)  # the base fields must make a valid design
+        if not isinstance(self.base, dict):
+            raise SweepError(f"base = {self.base!r}: must be a dict of design fields")
+        try:
+            size = self.design("05-03", 20.0, None).height_mm  # the base fields make a valid design
+        except GeometryError as exc:
+            raise SweepError(f"base design: {exc}") from None
+        if not Number(0.0, size, lo_open=True).ok(self.target_output_mm):
+            raise SweepError(f"--target-output = {self.target_output_mm!r}: must be a positive number "
+                             f"of mm, at most the body's height {size:g} mm")
 
     def design(self, hinges: str, phi1: float, phi2: float | None) -> Design:
         base = {k: v for k, v in self.base.items() if k not in ("phi1_deg", "phi2_deg", "hinge_set", "hinge_thickness_mm", "name")}

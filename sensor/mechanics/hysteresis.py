@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from sensor.errors import HysteresisError, SensorInputError
+from sensor.validation import is_real, require
 
 
 @dataclass(frozen=True)
@@ -102,9 +103,25 @@ class StrainEnergyLaw:
     h_per_mJ: float
     calibrated_on: str
 
+    def __post_init__(self):
+        require(is_real(self.h_per_mJ) and 0 <= self.h_per_mJ <= 1e3, "h_per_mJ", self.h_per_mJ,
+                "a number in [0, 1000] (per mJ; Table 6 gives about 0.06, 0 is a body "
+                "without hysteresis)")
+        require(isinstance(self.calibrated_on, str), "calibrated_on", self.calibrated_on,
+                "the name of the specimen the law was calibrated on")
+
     def predict(self, strain_energy_mJ):
-        """Predicted hysteresis (fraction of full scale) for a strain energy in mJ."""
-        return self.h_per_mJ * np.asarray(strain_energy_mJ, dtype=float)
+        """Predicted hysteresis (fraction of full scale) for a strain energy in mJ, in
+        [0, 1e6] (NaN, the mark of a failed solve, gives NaN)."""
+        try:
+            se = np.asarray(strain_energy_mJ, dtype=float)
+        except (TypeError, ValueError):
+            se = None
+        require(se is not None, "strain_energy_mJ", strain_energy_mJ, "a number or an array of numbers (mJ)")
+        bad = se[~(np.isnan(se) | ((se >= 0) & (se <= 1e6)))]  # negative, huge or infinite
+        require(bad.size == 0, "strain_energy_mJ", float(bad[0]) if bad.size else None,
+                "a number in [0, 1e6] (mJ)")
+        return self.h_per_mJ * se
 
     @classmethod
     def calibrate(cls, specimen: str = "basis") -> "StrainEnergyLaw":

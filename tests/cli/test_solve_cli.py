@@ -42,7 +42,7 @@ def test_solve_to_a_force(capsys):
     (["solve", "--phi1", "40"], "rule 'angle_limits'"),
     (["solve", "--preset", "basis", "--phi1", "20"], "cannot be combined"),
     (["solve", "--increments", "0"], "--increments = 0"),
-    (["solve", "--target-output", "-1"], "target_output_mm = -1"),
+    (["solve", "--target-output", "-1"], "--target-output = -1.0"),
     (["solve", "--model", "/nonexistent/m.json"], "No such file"),
 ])
 def test_solve_bad_input_exits_2_with_one_line(argv, fragment, capsys):

@@ -1,0 +1,209 @@
+"""Faults during a sweep: a Dask cluster that loses every worker or its scheduler (real
+processes, killed by PID), a sweep process killed while its pool runs, SIGTERM/Ctrl-C, and
+temp files left by a killed write. Each ends in order and ``resume`` finishes the sweep
+with exactly the dataset of an uninterrupted run."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sensor.design_space.dataset import load_dataset
+from sensor.design_space.execution import run_sweep
+from sensor.design_space.spec import Grid, SweepSpec
+from sensor.errors import ClusterLostError
+from tests.design_space.test_sweep import _same
+
+#: 6 rows of 6 cells: enough rows that a fault lands mid-sweep, a second or two of work.
+SPEC = SweepSpec(hinge_sets=("05-03",), phi1=Grid(14, 26, 6), phi2=Grid(10, 40, 6))
+DASK = Path(sys.executable).with_name("dask")
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return run_sweep(SPEC, "test", workers=1)[0]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _spawn(*argv) -> subprocess.Popen:
+    return subprocess.Popen([str(DASK), *argv], cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+@pytest.fixture
+def cluster():
+    """A real scheduler and two worker processes (no nanny, so a killed worker stays dead)."""
+    pytest.importorskip("distributed")
+    from distributed import Client
+
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    procs = [_spawn("scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
+                    "--no-dashboard")]
+    procs += [_spawn("worker", address, "--no-nanny", "--nthreads", "1", "--no-dashboard")
+              for _ in range(2)]
+    with Client(address, timeout=20) as c:
+        c.wait_for_workers(2, timeout=30)
+    yield address, procs
+    for p in procs:
+        p.kill()
+        p.wait()
+
+
+class _KillAfter:
+    """A progress reporter that kills processes once some rows are in."""
+
+    def __init__(self, rows, procs):
+        self.rows, self.procs = rows, procs
+
+    def start(self, total):
+        pass
+
+    def advance(self, n):
+        self.rows -= 1
+        if self.rows == 0:
+            for p in self.procs:
+                os.kill(p.pid, signal.SIGKILL)
+
+    def stop(self):
+        pass
+
+
+@pytest.mark.parametrize("victim", ["workers", "scheduler"])
+def test_lost_cluster_ends_with_a_checkpoint_that_resume_completes(cluster, tmp_path, serial, victim):
+    address, procs = cluster
+    killed = procs[1:] if victim == "workers" else procs[:1]
+    path = tmp_path / "sweep.nc"
+    t0 = time.monotonic()
+    with pytest.raises(ClusterLostError) as exc:
+        run_sweep(SPEC, "test", path, scheduler=address, progress=_KillAfter(2, killed),
+                  checkpoint_s=1e9, cluster_timeout_s=2.0)
+    # 2 s without a cluster plus the client's own detection: well inside the 20 s promised
+    assert time.monotonic() - t0 < 20
+    msg = str(exc.value)
+    assert "\n" not in msg and "--resume" in msg and str(path) in msg, msg
+    partial = load_dataset(path)
+    done = int(partial["computed"].values.sum())
+    assert 0 < done < 36
+    ds, n = run_sweep(SPEC, "test", path, resume=True, workers=1)
+    assert n == 36 - done
+    _same(serial, ds)
+
+
+def _children(pid: int) -> list[int]:
+    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True, check=False)
+    return [int(x) for x in out.stdout.split()]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie (dead, not yet reaped) counts as gone
+    with open(f"/proc/{pid}/stat") as fh:
+        return fh.read().split(")")[-1].split()[0] != "Z"
+
+
+def _start_sweep(tmp_path) -> subprocess.Popen:
+    """`dacm sweep` in a child process with 2 workers on a grid that takes a while."""
+    code = "import sys; from sensor.cli import main; sys.exit(main())"
+    return subprocess.Popen([sys.executable, "-c", code, "sweep", "--phi1", "8:30:40", "--phi2",
+                             "6:50:40", "--workers", "2", "--out", str(tmp_path), "--quiet",
+                             "--no-plots"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _workers_of(proc) -> list[int]:
+    for _ in range(200):
+        kids = _children(proc.pid)
+        if len(kids) >= 2:
+            return kids
+        time.sleep(0.05)
+    raise AssertionError("the sweep started no worker processes")
+
+
+def test_sigkill_of_the_sweep_takes_its_workers_along(tmp_path):
+    proc = _start_sweep(tmp_path)
+    kids = _workers_of(proc)
+    proc.kill()
+    proc.wait()
+    deadline = time.monotonic() + 5
+    while any(_alive(k) for k in kids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(k) for k in kids), "worker processes outlived the killed sweep"
+
+
+@pytest.mark.parametrize("sig,status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_signal_saves_the_checkpoint_and_prints_one_line(tmp_path, sig, status):
+    proc = _start_sweep(tmp_path)
+    kids = _workers_of(proc)
+    time.sleep(3)  # let some rows finish
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == status, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err, err
+    assert "interrupted after" in lines[0] and "finish with --resume" in lines[0], lines
+    done = int(lines[0].split("after ")[1].split()[0])
+    assert int(load_dataset(tmp_path / "sweep.nc")["computed"].values.sum()) == done
+    assert not any(_alive(k) for k in kids)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_temp_file_of_a_killed_write_is_removed_by_the_next_run(tmp_path):
+    from sensor.design_space.dataset import save_dataset
+
+    # the temp file a writer killed mid-write leaves: its PID is gone
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".sweep.nc.tmp{dead.pid}-k1ll3d.nc"
+    stale.write_bytes(b"\x89HDF half")
+    ds, _ = run_sweep(SweepSpec(hinge_sets=("05-03",), phi1=Grid(20, 22, 2), phi2=Grid(20, 30, 2)),
+                      "test", tmp_path / "sweep.nc", workers=1)
+    assert not stale.exists()
+    save_dataset(ds, tmp_path / "sweep.nc")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.nc"]
+    assert np.isfinite(load_dataset(tmp_path / "sweep.nc")["amplification"].values).any()
+
+
+def test_lost_scheduler_from_the_command_line_is_one_line(cluster, tmp_path):
+    """The command line adds distributed's own logging to the picture: still one line."""
+    address, procs = cluster
+    code = "import sys; from sensor.cli import main; sys.exit(main())"
+    proc = subprocess.Popen([sys.executable, "-c", code, "sweep", "--phi1", "8:30:40", "--phi2", "6:50:40",
+                             "--scheduler", address, "--out", str(tmp_path), "--quiet", "--no-plots"],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(4)
+    os.kill(procs[0].pid, signal.SIGKILL)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "lost the scheduler" in lines[0] and "--resume" in lines[0], err
+
+
+def test_workers_beyond_the_cores_are_capped_with_a_one_line_note(tmp_path, capsys):
+    from sensor.cli import main
+    from sensor.design_space.execution import local_workers
+    from sensor.errors import ResourceNote
+
+    cores = len(os.sched_getaffinity(0))
+    with pytest.warns(ResourceNote, match=f"workers = 4096: more than the {cores} cores"):
+        assert local_workers(4096) == cores
+    assert main(["sweep", "--phi1", "20:22:2", "--phi2", "20:30:2", "--hinges", "05-03", "--workers", "64",
+                 "--out", str(tmp_path), "--quiet", "--no-plots"]) == 0
+    err = capsys.readouterr().err.strip()
+    assert err == f"dacm sweep: note: workers = 64: more than the {cores} cores of this machine; using {cores}"
