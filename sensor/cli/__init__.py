@@ -64,19 +64,25 @@ def _orderly_stops(command: str):
         kind = "note" if issubclass(category, ResourceNote) else "warning"
         print(f"dacm {command}: {kind}: {_one_line(message)}", file=sys.stderr)
 
-    def terminate(signum, _frame):
-        raise Terminated(signum)
+    def stop(signum, _frame):
+        _stopped_by.append(signum)
+        raise Terminated(signum) if signum == signal.SIGTERM else KeyboardInterrupt
 
     in_main = _is_main_thread()
-    previous = signal.signal(signal.SIGTERM, terminate) if in_main else None
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGTERM, signal.SIGINT)} if in_main else {}
     with warnings.catch_warnings():
         warnings.simplefilter("default")
         warnings.showwarning = show
         try:
             yield
         finally:
-            if in_main:
-                signal.signal(signal.SIGTERM, previous)
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+#: The signals that stopped the running command (a C extension interrupted while it loads
+#: turns the KeyboardInterrupt into an ImportError; this list still tells it was a stop).
+_stopped_by: list[int] = []
 
 
 def _is_main_thread() -> bool:
@@ -87,6 +93,7 @@ def _is_main_thread() -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     command = None
+    _stopped_by.clear()
     try:
         args = build_parser().parse_args(argv)
         command = args.command
@@ -100,13 +107,22 @@ def main(argv: list[str] | None = None) -> int:
         print(f"dacm {command}: {_one_line(exc)}", file=sys.stderr)
         return 128 + exc.signum
     except KeyboardInterrupt as exc:
-        term = isinstance(exc, Terminated)
-        print(f"dacm{' ' + command if command else ''}: interrupted ({'SIGTERM' if term else 'SIGINT'})",
-              file=sys.stderr)
-        return 128 + (signal.SIGTERM if term else signal.SIGINT)
+        return _report_stop(command, signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT)
     except USER_ERRORS as exc:
+        if _stopped_by:
+            return _report_stop(command, _stopped_by[-1])
         print(f"dacm {command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
+    except Exception:
+        if _stopped_by:
+            return _report_stop(command, _stopped_by[-1])
+        raise
+
+
+def _report_stop(command: str | None, signum: int) -> int:
+    name = "SIGTERM" if signum == signal.SIGTERM else "SIGINT"
+    print(f"dacm{' ' + command if command else ''}: interrupted ({name})", file=sys.stderr)
+    return 128 + signum
 
 
 if __name__ == "__main__":

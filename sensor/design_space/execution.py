@@ -264,7 +264,7 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
         while not pending.is_empty():
             batch = pending.next_batch(block=False)
             for f in batch:
-                yield _dask_result(f, address)
+                yield _dask_result(f, address, lost_after_s)
             fault = None if batch else _cluster_fault(client)
             if fault is None:
                 healthy = time.monotonic()
@@ -279,11 +279,15 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
         _close_client(client)
 
 
-def _dask_result(future, address: str) -> dict:
-    """A row from a finished future; a row the cluster lost (its workers kept dying) is a
-    lost cluster, any other error is the row's own."""
+def _dask_result(future, address: str, lost_after_s: float) -> dict:
+    """A row from a finished future; a row the cluster lost (its workers kept dying, or its
+    result never arrives within ``lost_after_s``) is a lost cluster, any other error is the
+    row's own."""
     try:
-        return future.result()
+        return future.result(timeout=lost_after_s)
+    except TimeoutError:
+        raise ClusterLostError(f"--scheduler = {address!r}: a finished row did not arrive within "
+                               f"{lost_after_s:g} s") from None
     except Exception as exc:
         if type(exc).__module__.split(".")[0] == "distributed" or isinstance(exc, OSError):
             what = ("lost the scheduler" if "connection-lost" in str(exc) or isinstance(exc, OSError)
