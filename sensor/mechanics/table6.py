@@ -57,6 +57,7 @@ class Table6Row:
     amplification_thesis: float
     sensitivity_mm_per_N: float
     sensitivity_thesis: float
+    sensitivity_measured: float
     strain_energy_mJ: float
     strain_energy_thesis: float
     hysteresis_predicted: float
@@ -73,7 +74,7 @@ def table6_comparison(law: StrainEnergyLaw = DEFAULT_LAW) -> list[Table6Row]:
         t = TABLE6[name]
         q = qualify(r, law)
         rows.append(Table6Row(name, q.amplification, thesis_amplification(name),
-                              q.sensitivity_mm_per_N, t.sensitivity_model_mm_per_N,
+                              q.sensitivity_mm_per_N, t.sensitivity_model_mm_per_N, t.sensitivity_mm_per_N,
                               q.strain_energy_mJ, t.strain_energy_model_mJ, q.hysteresis,
                               t.hysteresis, q.quality_mm_per_N, t.quality))
     return rows
