@@ -20,7 +20,13 @@ from sensor.design_space.execution import run_sweep
 from sensor.design_space.spec import SweepSpec
 from sensor.mechanics.solver import solve
 from sensor.readout.datasheet import cross_axis, datasheet
-from sensor.readout.optics import MODELS, OpticsSetup, output_voltage, voltage_slope, working_range
+from sensor.readout.optics import (
+    MODELS,
+    OpticsSetup,
+    output_voltage,
+    voltage_slope,
+    working_range,
+)
 from sensor.readout.sensor_model import build_sensor
 
 PATH = Path(__file__).with_name("data") / "reference.npz"
@@ -74,7 +80,8 @@ def sweep_values(ds) -> dict[str, np.ndarray]:
 def main():
     ds, _ = run_sweep(SweepSpec(), "reference", workers=1)
     values = {**preset_values(), **sweep_values(ds)}
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                            check=True).stdout.strip()
     PATH.parent.mkdir(exist_ok=True)
     np.savez_compressed(PATH, **values, commit=np.array(commit))
     print(f"wrote {len(values)} arrays to {PATH} (code at {commit})")
