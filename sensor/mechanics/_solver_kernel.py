@@ -150,7 +150,7 @@ def _port(node, direction, body_of_node, dof_of_body, u, rho, g):
 def _evaluate(q, lam, topo, bt, b, w):
     """Residual w.F (out-of-balance forces, F - lam g_in), tangent w.K, the input port's
     gradient w.g_in and the output port's gradient w.g_out at state q; returns the output travel."""
-    body_of_node, dof_of_body, ea, eb, elem_dofs, in_node, out_node = topo
+    body_of_node, dof_of_body, ea, eb, elem_dofs, in_node, out_node = topo[:7]
     r0, d0, L0, beta0, Kn, f_in, d_out = bt
     node_state(q, body_of_node, r0[b], w.u, w.th, w.rho)
     nd = w.F.shape[0]
@@ -182,21 +182,31 @@ def _evaluate(q, lam, topo, bt, b, w):
 
 
 @njit(cache=True, error_model="numpy")
-def solve_in_place(W, m, ncore):
+def solve_in_place(W, m, ncore, row_end, reach):
     """Solve the m x m system W[:m, :m] x = W[:m, m] by Gaussian elimination with partial
-    pivoting; x replaces W[:m, m]. Columns below ``ncore`` are banded (the zeros right of each
-    row's last nonzero are skipped, fill-in tracked), columns ncore..m-1 are dense. Returns
-    False if a pivot is exactly zero (singular) or the solution is not finite."""
+    pivoting; x replaces W[:m, m]. Rows and columns below ``ncore`` are banded: row i's
+    nonzeros end at column row_end[i] and column k's at row reach[k] (nondecreasing); the
+    kernel skips the zeros outside, tracking the fill-in of the row exchanges. Rows and
+    columns from ncore to m - 1 are dense. Returns False if a pivot is exactly zero
+    (singular) or the solution is not finite."""
     hi = np.empty(m, dtype=np.int64)
     for i in range(m):
-        last = -1
-        for j in range(ncore):
-            if W[i, j] != 0.0:
-                last = j
-        hi[i] = last
+        if i < ncore:
+            hi[i] = row_end[i]
+        else:
+            last = -1
+            for j in range(ncore):
+                if W[i, j] != 0.0:
+                    last = j
+            hi[i] = last
     for k in range(m):
+        last = reach[k] if k < ncore else m - 1      # the last core row that can reach column k
         p, big = k, abs(W[k, k])
-        for i in range(k + 1, m):
+        for i in range(k + 1, last + 1):
+            v = abs(W[i, k])
+            if v > big:
+                p, big = i, v
+        for i in range(max(last + 1, ncore), m):
             v = abs(W[i, k])
             if v > big:
                 p, big = i, v
@@ -209,6 +219,8 @@ def solve_in_place(W, m, ncore):
         pivot = W[k, k]
         end = hi[k]
         for i in range(k + 1, m):
+            if i > last and i < ncore:
+                continue
             if W[i, k] == 0.0:
                 continue
             lik = W[i, k] / pivot
@@ -232,30 +244,22 @@ def solve_in_place(W, m, ncore):
 
 
 @njit(cache=True, error_model="numpy")
-def positive_definite(K, L):
-    """Whether the symmetric part of K (n, n) is positive definite (Cholesky into L, skipping
-    the zeros left of each row's first nonzero)."""
+def positive_definite(K, L, row_start):
+    """Whether the symmetric part of K (n, n) is positive definite: Cholesky into L within
+    the envelope (row i's nonzeros start at column row_start[i])."""
     n = K.shape[0]
-    lo = np.empty(n, dtype=np.int64)
-    for i in range(n):
-        first = i
-        for j in range(i):
-            if K[i, j] != 0.0 or K[j, i] != 0.0:
-                first = j
-                break
-        lo[i] = first
     for j in range(n):
         d = K[j, j]
-        for k in range(lo[j], j):
+        for k in range(row_start[j], j):
             d -= L[j, k] * L[j, k]
         if not d > 0.0:
             return False
         L[j, j] = math.sqrt(d)
         for i in range(j + 1, n):
-            if lo[i] > j:
+            if row_start[i] > j:
                 continue
             s = 0.5 * (K[i, j] + K[j, i])
-            for k in range(max(lo[i], lo[j]), j):
+            for k in range(max(row_start[i], row_start[j]), j):
                 s -= L[i, k] * L[j, k]
             L[i, j] = s / L[j, j]
     return True
@@ -311,7 +315,7 @@ def _newton(q, lam, goal, target, lam_scale, verify, disp, tol, max_iterations, 
                 W[nd, i] = w.g_out[i]
             W[nd, nd] = 0.0
             W[nd, m] = -c
-        if not solve_in_place(W, m, nd):
+        if not solve_in_place(W, m, nd, topo[8], topo[9]):
             return SINGULAR, lam, res
         for i in range(nd):
             w.x[i] = W[i, m]
@@ -337,7 +341,7 @@ def increment(q, lam, goal, target, lam_scale, alive, verify, disp, tol, max_ite
             continue
         status[b], lam[b], res[b] = _newton(q[b], lam[b], goal, target, lam_scale[b], verify, disp,
                                             tol, max_iterations, topo, bt, b, weight[b], w)
-        stable[b] = status[b] == CONVERGED and positive_definite(w.Kg, w.L)
+        stable[b] = status[b] == CONVERGED and positive_definite(w.Kg, w.L, topo[7])
         node_state(q[b], body_of_node, bt[0][b], w.u, w.th, w.rho)
         u_in[b] = w.u[in_node, 0] * d_in[b, 0] + w.u[in_node, 1] * d_in[b, 1]
         u_out[b] = w.u[out_node, 0] * d_out[b, 0] + w.u[out_node, 1] * d_out[b, 1]

@@ -109,12 +109,14 @@ class Topology:
     elem_dofs: np.ndarray         # (e, 6) reduced dof indices (-1 fixed) of the element ends
     input_node: int
     output_node: int
+    band: tuple                   # stiffness envelope: first and last column of each row,
+                                  # and the last row each column can reach (see _envelope)
 
     @property
     def kernel_args(self) -> tuple:
         """The connectivity as the compiled kernel takes it."""
         return (self.body_of_node, self.dof_of_body, self.ea, self.eb, self.elem_dofs,
-                self.input_node, self.output_node)
+                self.input_node, self.output_node, *self.band)
 
 
 def _bodies(model: BeamModel) -> tuple[np.ndarray, np.ndarray]:
@@ -179,7 +181,20 @@ def _prepare(model: BeamModel) -> Topology:
     elem_dofs = np.concatenate([dof_of_body[body[ea]], dof_of_body[body[eb]]], axis=1)
     return Topology(len(model.nodes), body.astype(np.int64), masters, ~fixed.all(1), dof_of_body,
                     int(free.sum()), flex, ea.astype(np.int64), eb.astype(np.int64), elem_dofs,
-                    int(model.input_node), int(model.output_node))
+                    int(model.input_node), int(model.output_node), _envelope(elem_dofs, int(free.sum())))
+
+
+def _envelope(elem_dofs: np.ndarray, n_dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the stiffness matrix can be nonzero (the members couple their end dofs): per
+    row the first and last column, and per column the last row that elimination with row
+    exchanges can reach (the running maximum of the columns' last rows)."""
+    pattern = np.eye(n_dof, dtype=bool)
+    for dofs in elem_dofs:
+        d = dofs[dofs >= 0]
+        pattern[np.ix_(d, d)] = True
+    start = np.argmax(pattern, axis=1)
+    end = n_dof - 1 - np.argmax(pattern[:, ::-1], axis=1)
+    return start.astype(np.int64), end.astype(np.int64), np.maximum.accumulate(end).astype(np.int64)
 
 
 def _band_order(n_bodies: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -32,7 +32,9 @@ def test_banded_elimination_matches_lapack(n, band, border):
         b = rng.standard_normal(n)
         W = np.zeros((n + 1, n + 2))
         W[:n, :n], W[:n, n] = A, b
-        assert K.solve_in_place(W, n, n - border)
+        core = np.arange(n - border)
+        end = np.minimum(core + band, n - border - 1)
+        assert K.solve_in_place(W, n, n - border, end, end)
         x = np.linalg.solve(A, b)
         assert np.max(np.abs(W[:n, n] - x)) <= 1e-10 * np.max(np.abs(x))
 
@@ -41,7 +43,7 @@ def test_exactly_singular_system_is_reported():
     A = np.diag([2.0, 1.0, 0.0, 3.0])
     W = np.zeros((5, 6))
     W[:4, :4], W[:4, 4] = A, 1.0
-    assert not K.solve_in_place(W, 4, 4)
+    assert not K.solve_in_place(W, 4, 4, np.arange(4), np.arange(4))
 
 
 @pytest.mark.parametrize("shift, expected", [(+0.5, True), (-0.5, False)])
@@ -53,7 +55,8 @@ def test_positive_definiteness_matches_cholesky(shift, expected):
     S = S + S.T
     S += (shift - np.linalg.eigvalsh(S).min()) * np.eye(40)
     skew = np.triu(rng.standard_normal((40, 40)) * (np.abs(np.subtract.outer(range(40), range(40))) <= 5), 1)
-    assert K.positive_definite(S + skew - skew.T, np.zeros((40, 40))) is expected
+    start = np.maximum(np.arange(40) - 5, 0)
+    assert K.positive_definite(S + skew - skew.T, np.zeros((40, 40)), start) is expected
 
 
 @pytest.mark.parametrize("name", ["basis", "sample-b"])
