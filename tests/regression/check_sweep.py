@@ -1,9 +1,9 @@
 """Check the whole default sweep against the reference: python -m tests.regression.check_sweep
 
-Runs `dacm sweep` (this checkout's code, default settings, into a temporary folder) and
-prints one JSON object: the largest relative deviation from the reference over every
-qualifier (tolerance 1e-6), whether the feasibility mask and the kinds of failure reason are
-identical, and the worst variable.
+Runs `dacm sweep` (this checkout's code, on the reference's grid 6:31:41 x 4:56:41, both
+hinge sets, into a temporary folder) and prints one JSON object: the largest relative
+deviation from the reference over every qualifier of both bodies (tolerance 1e-6), whether
+the feasibility mask and the kinds of failure reason are identical, and the worst variable.
 """
 
 import json
@@ -22,7 +22,8 @@ DACM = "import sys; from sensor.cli import main; sys.exit(main())"
 
 def main():
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([sys.executable, "-c", DACM, "sweep", "--out", tmp, "--quiet", "--no-plots"],
+        subprocess.run([sys.executable, "-c", DACM, "sweep", "--out", tmp, "--quiet", "--no-plots",
+                        "--phi1", "6:31:41", "--phi2", "4:56:41"],
                        cwd=ROOT, check=True, capture_output=True)
         ds = load_dataset(Path(tmp) / "sweep.nc")
     dev = deviations(sweep_values(ds), load())
