@@ -191,8 +191,10 @@ def _execute(spec: SweepSpec, todo, workers: int, scheduler: str | None, cluster
     pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("fork"),
                                initializer=_worker_setup, initargs=(os.getpid(),))
     try:
-        futures = [pool.submit(solve_row, spec, h, i, m) for h, i, m in todo]
+        # each finished row is merged and dropped: nothing here holds on to finished rows
+        futures = {pool.submit(solve_row, spec, h, i, m) for h, i, m in todo}
         for f in as_completed(futures):
+            futures.discard(f)
             yield f.result()
     finally:
         _stop_pool(pool)

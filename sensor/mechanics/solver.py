@@ -26,8 +26,11 @@ How the thesis' method maps onto the code:
   checked for stability (a negative mode of the tangent stiffness under the dead input
   load is reported, not followed).
 
-Many designs of the same topology (a sweep) are solved together: every array carries a
-leading batch axis. Units: mm, N, MPa, mJ (N mm).
+Many designs of the same topology (a sweep row) are solved together: the per-design
+arrays carry a leading batch axis, and each design's Newton iterations run on their own in
+the compiled kernel (:mod:`sensor.mechanics._solver_kernel`: the member formulas above, dense
+assembly on the bodies' dofs, and Gaussian elimination with partial pivoting that skips the
+zeros of the banded stiffness matrix). Units: mm, N, MPa, mJ (N mm).
 """
 
 from __future__ import annotations
@@ -35,7 +38,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.integrate import simpson
 
 from geometry.topology import BeamModel
@@ -47,6 +49,7 @@ from sensor.errors import (
     SnapThroughError,
     UnreachableTargetError,
 )
+from sensor.mechanics import _solver_kernel as _kernel
 
 SHEAR_FORM_FACTOR = 6.0 / 5.0  # rectangle, in the shear term of eqs 80-81
 
@@ -88,7 +91,7 @@ def natural_stiffness(L, t, b, E, G):
     return np.swapaxes(T, -1, -2) @ K @ T
 
 
-# --- topology: rigid bodies, dofs and the scatter maps ----------------------------------
+# --- topology: rigid bodies and dofs -------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)
 class Topology:
@@ -104,11 +107,16 @@ class Topology:
     ea: np.ndarray                # (e,) start node
     eb: np.ndarray                # (e,) end node
     elem_dofs: np.ndarray         # (e, 6) reduced dof indices (-1 fixed) of the element ends
-    scatter_K: sp.csr_matrix      # (n_dof^2, e*36)
-    scatter_f: sp.csr_matrix      # (n_dof, e*6)
     input_node: int
     output_node: int
-    free_body_dof: tuple          # (body, k) index arrays of the free dofs, in dof order
+    band: tuple                   # stiffness envelope: first and last column of each row,
+                                  # and the last row each column can reach (see _envelope)
+
+    @property
+    def kernel_args(self) -> tuple:
+        """The connectivity as the compiled kernel takes it."""
+        return (self.body_of_node, self.dof_of_body, self.ea, self.eb, self.elem_dofs,
+                self.input_node, self.output_node, *self.band)
 
 
 def _bodies(model: BeamModel) -> tuple[np.ndarray, np.ndarray]:
@@ -131,8 +139,8 @@ def _bodies(model: BeamModel) -> tuple[np.ndarray, np.ndarray]:
 
 
 def prepare(model: BeamModel) -> Topology:
-    """Rigid bodies, dof numbering and scatter maps of a model's connectivity (cached: a
-    sweep's designs share a handful of connectivities)."""
+    """Rigid bodies and dof numbering of a model's connectivity (cached: a sweep's designs
+    share a handful of connectivities)."""
     key = (len(model.nodes), model.member_nodes.tobytes(), model.member_kind, model.supports,
            model.input_node, model.output_node)
     topo = _TOPOLOGIES.get(key)
@@ -158,40 +166,48 @@ def _prepare(model: BeamModel) -> Topology:
                     f"support at node {node} fixes only {dofs} on a rigid body: clamp it or "
                     "put the support on the body's first node")
         for dof in dofs:
-            fixed[c, "x y rz".split().index(dof)] = True
-    # a body with all three dofs fixed is held; partially held bodies keep their free dofs
-    dof_of_body = -np.ones((nb, 3), dtype=int)
-    dof_of_body[~fixed] = np.arange(int((~fixed).sum()))
-    n_dof = int((~fixed).sum())
+            fixed[c, ["x", "y", "rz"].index(dof)] = True
+    # a body with all three dofs fixed is held; partially held bodies keep their free dofs.
+    # Dofs are numbered body by body in reverse Cuthill-McKee order of the bodies' coupling
+    # graph: the stiffness matrix is then banded, which the kernel's elimination exploits.
     flex = np.array([i for i, k in enumerate(model.member_kind) if k != "rigid"], dtype=int)
     if len(flex) == 0:
         raise SingularSystemError("the model has no compliant member")
     ea, eb = model.member_nodes[flex, 0], model.member_nodes[flex, 1]
+    order = _band_order(nb, body[ea], body[eb])
+    free = ~fixed[order]
+    dof_of_body = np.empty((nb, 3), dtype=np.int64)
+    dof_of_body[order] = np.where(free, np.cumsum(free).reshape(nb, 3) - 1, -1)
     elem_dofs = np.concatenate([dof_of_body[body[ea]], dof_of_body[body[eb]]], axis=1)
-    e = len(flex)
-    # scatter maps: element entries -> reduced global entries (entries on fixed dofs dropped)
-    ii, jj = np.meshgrid(np.arange(6), np.arange(6), indexing="ij")
-    rows = elem_dofs[:, ii.ravel()]                     # (e, 36)
-    cols = elem_dofs[:, jj.ravel()]
-    src = np.arange(e * 36).reshape(e, 36)
-    keep = (rows >= 0) & (cols >= 0)
-    scatter_K = sp.csr_matrix((np.ones(keep.sum()), ((rows * n_dof + cols)[keep], src[keep])),
-                              shape=(n_dof * n_dof, e * 36))
-    keep_f = elem_dofs >= 0
-    scatter_f = sp.csr_matrix((np.ones(keep_f.sum()), (elem_dofs[keep_f], np.arange(e * 6).reshape(e, 6)[keep_f])),
-                              shape=(n_dof, e * 6))
-    fb, fk = np.nonzero(dof_of_body >= 0)
-    order = np.argsort(dof_of_body[fb, fk])
-    return Topology(len(model.nodes), body, masters, ~fixed.all(1), dof_of_body, n_dof, flex,
-                    ea, eb, elem_dofs, scatter_K, scatter_f, model.input_node, model.output_node,
-                    (fb[order], fk[order]))
+    return Topology(len(model.nodes), body.astype(np.int64), masters, ~fixed.all(1), dof_of_body,
+                    int(free.sum()), flex, ea.astype(np.int64), eb.astype(np.int64), elem_dofs,
+                    int(model.input_node), int(model.output_node), _envelope(elem_dofs, int(free.sum())))
+
+
+def _envelope(elem_dofs: np.ndarray, n_dof: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the stiffness matrix can be nonzero (the members couple their end dofs): per
+    row the first and last column, and per column the last row that elimination with row
+    exchanges can reach (the running maximum of the columns' last rows)."""
+    pattern = np.eye(n_dof, dtype=bool)
+    for dofs in elem_dofs:
+        d = dofs[dofs >= 0]
+        pattern[np.ix_(d, d)] = True
+    start = np.argmax(pattern, axis=1)
+    end = n_dof - 1 - np.argmax(pattern[:, ::-1], axis=1)
+    return start.astype(np.int64), end.astype(np.int64), np.maximum.accumulate(end).astype(np.int64)
+
+
+def _band_order(n_bodies: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The bodies in reverse Cuthill-McKee order of their coupling by members a-b."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    pairs = np.concatenate([a, b]), np.concatenate([b, a])
+    graph = sp.csr_matrix((np.ones(2 * len(a)), pairs), shape=(n_bodies, n_bodies))
+    return reverse_cuthill_mckee(graph, symmetric_mode=True)
 
 
 # --- the state of a batch ----------------------------------------------------------------
-
-def _wrap(a):
-    return (a + np.pi) % (2 * np.pi) - np.pi
-
 
 @dataclass(frozen=True, eq=False)
 class _Batch:
@@ -207,6 +223,12 @@ class _Batch:
     d_out: np.ndarray    # (B, 2) output travel direction
     d_in: np.ndarray     # (B, 2)
     dof_weight: np.ndarray  # (B, n_dof) 1 on forces, 1 / model size on moments (residual norm)
+
+    @property
+    def kernel_args(self) -> tuple:
+        """The per-design constants as the compiled kernel takes them (C-ordered float arrays)."""
+        return tuple(np.ascontiguousarray(a, dtype=float)
+                     for a in (self.r0, self.d0, self.L0, self.beta0, self.Kn, self.f_in, self.d_out))
 
 
 def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
@@ -227,131 +249,6 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
     rot = topo.dof_of_body[:, 2][topo.dof_of_body[:, 2] >= 0]
     weight[:, rot] = 1.0 / size[:, None]
     return _Batch(X, r0, d, L0, beta0, Kn, f_in, d_out, f_in, weight)
-
-
-def _node_state(topo: Topology, bt: _Batch, q: np.ndarray):
-    """Displacements (B, n, 2), rotations (B, n) and current offsets rho (B, n, 2) of all nodes.
-
-    q (B, c, 3) holds each body's translation and rotation (fixed bodies stay zero). The
-    displacement is formed without subtracting positions, so it keeps full precision.
-    """
-    qn = q[:, topo.body_of_node]                       # (B, n, 3)
-    s = np.sin(qn[..., 2])
-    cm1 = -2.0 * np.sin(qn[..., 2] / 2) ** 2           # cos - 1 without cancellation
-    turn = np.stack([cm1 * bt.r0[..., 0] - s * bt.r0[..., 1], s * bt.r0[..., 0] + cm1 * bt.r0[..., 1]], -1)
-    return qn[..., :2] + turn, qn[..., 2], bt.r0 + turn
-
-
-def _elements(topo: Topology, bt: _Batch, node_state):
-    """Chord-frame deformations, forces, and the element tangent and force in body dofs."""
-    u, th, rho = node_state
-    du = u[:, topo.eb] - u[:, topo.ea]
-    d = bt.d0 + du                                     # (B, e, 2) current chords
-    Ln = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2)
-    stretch = (2 * (bt.d0[..., 0] * du[..., 0] + bt.d0[..., 1] * du[..., 1])
-               + du[..., 0] ** 2 + du[..., 1] ** 2) / (Ln + bt.L0)
-    c, s = d[..., 0] / Ln, d[..., 1] / Ln
-    alpha = _wrap(np.arctan2(s, c) - bt.beta0)
-    defo = np.empty(c.shape + (3,))
-    defo[..., 0] = stretch
-    t1 = defo[..., 1] = _wrap(th[:, topo.ea] - alpha)
-    t2 = defo[..., 2] = _wrap(th[:, topo.eb] - alpha)
-    # bowing (shallow-arch) term: a bent member's axis is longer than its chord, by
-    # L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30 for the cubic shape; it couples axial force and
-    # bending inside the member (tension stiffens a bent hinge)
-    c30 = bt.L0 / 30.0
-    eff = defo.copy()
-    eff[..., 0] += c30 * (2 * t1 * t1 - t1 * t2 + 2 * t2 * t2)
-    qe = (bt.Kn @ eff[..., None])[..., 0]               # N and the bending moments
-    b1, b2 = c30 * (4 * t1 - t2), c30 * (4 * t2 - t1)
-    qf = qe.copy()                                      # forces conjugate to defo: N, M_a, M_b
-    qf[..., 1] += qe[..., 0] * b1
-    qf[..., 2] += qe[..., 0] * b2
-    # K_loc = J^T Kn J + N d2(bow)/d(theta)2 with J = I + e0 (0, b1, b2); Kn has no
-    # axial-bending coupling, so this is Kn plus rank-one updates, written out
-    ka = bt.Kn[..., 0, 0]
-    nb = qe[..., 0] * c30
-    K_loc = bt.Kn.copy()
-    K_loc[..., 0, 1] += ka * b1
-    K_loc[..., 0, 2] += ka * b2
-    K_loc[..., 1, 0] = K_loc[..., 0, 1]
-    K_loc[..., 2, 0] = K_loc[..., 0, 2]
-    K_loc[..., 1, 1] += ka * b1 * b1 + 4 * nb
-    K_loc[..., 2, 2] += ka * b2 * b2 + 4 * nb
-    K_loc[..., 1, 2] += ka * b1 * b2 - nb
-    K_loc[..., 2, 1] = K_loc[..., 1, 2]
-    # r = d(stretch)/dx, z = Ln d(chord angle)/dx, in node dofs (xa, ya, ta, xb, yb, tb)
-    r = np.zeros(c.shape + (6,))
-    r[..., 0], r[..., 1], r[..., 3], r[..., 4] = -c, -s, c, s
-    z = np.zeros(c.shape + (6,))
-    z[..., 0], z[..., 1], z[..., 3], z[..., 4] = s, -c, -s, c
-    Bm = np.empty(c.shape + (3, 6))                      # rows: d stretch, d theta_a, d theta_b
-    Bm[..., 0, :] = r
-    Bm[..., 1, :] = z * (-1 / Ln)[..., None]
-    Bm[..., 2, :] = Bm[..., 1, :]
-    Bm[..., 1, 2] += 1.0
-    Bm[..., 2, 5] += 1.0
-    BmT = np.swapaxes(Bm, -1, -2)
-    f = (BmT @ qf[..., None])[..., 0]                    # (B, e, 6) node-dof forces
-    K = BmT @ (K_loc @ Bm)
-    K += (qf[..., 0] / Ln)[..., None, None] * (z[..., :, None] * z[..., None, :])
-    rz = r[..., :, None] * z[..., None, :]
-    K += ((qf[..., 1] + qf[..., 2]) / Ln**2)[..., None, None] * (rz + np.swapaxes(rz, -1, -2))
-    # node dofs -> body dofs: x_node = x_master + rho, so d x_node / d theta_body = perp(rho).
-    # T = I plus perp(rho) in columns 2 and 5; K_body = T^T K T (+ the turning of rho).
-    ra, rb = rho[:, topo.ea], rho[:, topo.eb]
-    for col, (px, py) in ((2, (-ra[..., 1], ra[..., 0])), (5, (-rb[..., 1], rb[..., 0]))):
-        base = col - 2
-        K[..., :, col] += K[..., :, base] * px[..., None] + K[..., :, base + 1] * py[..., None]
-        K[..., col, :] += K[..., base, :] * px[..., None] + K[..., base + 1, :] * py[..., None]
-        f[..., col] += f[..., base] * px + f[..., base + 1] * py
-    K[..., 2, 2] -= ra[..., 0] * f[..., 0] + ra[..., 1] * f[..., 1]
-    K[..., 5, 5] -= rb[..., 0] * f[..., 3] + rb[..., 1] * f[..., 4]
-    return defo, qf, f, K, 0.5 * np.einsum("bei,beij,bej->be", eff, bt.Kn, eff)
-
-
-def _assemble(topo: Topology, f_body: np.ndarray, K: np.ndarray):
-    B = f_body.shape[0]
-    F = (topo.scatter_f @ f_body.reshape(B, -1).T).T
-    Kg = (topo.scatter_K @ K.reshape(B, -1).T).T.reshape(B, topo.n_dof, topo.n_dof)
-    return F, Kg
-
-
-def _port(topo: Topology, node_state, node: int, direction: np.ndarray):
-    """Travel of a node along a direction (B,) and its gradient in reduced dofs (B, n_dof)."""
-    u, th, rho = node_state
-    travel = np.sum(u[:, node] * direction, -1)
-    g = np.zeros((u.shape[0], topo.n_dof))
-    dofs = topo.dof_of_body[topo.body_of_node[node]]
-    g_body = (direction[:, 0], direction[:, 1],
-              -rho[:, node, 1] * direction[:, 0] + rho[:, node, 0] * direction[:, 1])
-    for k in range(3):
-        if dofs[k] >= 0:
-            g[:, dofs[k]] = g_body[k]
-    return travel, g, rho[:, node]
-
-
-def _positive_definite(K: np.ndarray) -> np.ndarray:
-    """(B,) whether each tangent stiffness (under a dead input load) is positive definite."""
-    S = 0.5 * (K + np.swapaxes(K, -1, -2))
-    try:
-        np.linalg.cholesky(S)
-        return np.ones(len(K), dtype=bool)
-    except np.linalg.LinAlgError:
-        ok = np.ones(len(K), dtype=bool)
-        for b in range(len(K)):
-            try:
-                np.linalg.cholesky(S[b])
-            except np.linalg.LinAlgError:
-                ok[b] = False
-        return ok
-
-
-def _apply(topo: Topology, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
-    q = q.copy()
-    body, k = topo.free_body_dof
-    q[:, body, k] += dq
-    return q
 
 
 # --- results ---------------------------------------------------------------------------------
@@ -458,22 +355,8 @@ class _Run:
         self.target = target
         self.B = len(models)
         self.deferred: list[int] = []   # designs set aside to be solved alone
-
-    def residual(self, q, lam):
-        """Out-of-balance forces, tangent, and both ports' travel and gradient at state q."""
-        ns = _node_state(self.topo, self.bt, q)
-        defo, qf, f_body, Ke, u_member = _elements(self.topo, self.bt, ns)
-        self.last_state = (q, ns, defo, qf, u_member)  # collect() reuses the final one
-        F, K = _assemble(self.topo, f_body, Ke)
-        u_in, g_in, rho_in = _port(self.topo, ns, self.topo.input_node, self.bt.f_in)
-        u_out, g_out, _ = _port(self.topo, ns, self.topo.output_node, self.bt.d_out)
-        # dead load lam * f_in at the input node: generalized force g_in (its moment arm turns
-        # with the body, which adds -d(g_in)/dq to the tangent)
-        r = F - lam[:, None] * g_in
-        dofs = self.topo.dof_of_body[self.topo.body_of_node[self.topo.input_node]]
-        if dofs[2] >= 0:
-            K[:, dofs[2], dofs[2]] += lam * np.sum(rho_in * self.bt.f_in, -1)
-        return r, K, g_in, u_out, g_out
+        self.work = _kernel.work(topo.n_nodes, topo.n_dof)
+        self.bt_args = bt.kernel_args
 
     def run(self):
         topo, B, o = self.topo, self.B, self.o
@@ -523,10 +406,7 @@ class _Run:
                 if not alive.any():
                     break
             n_inc += 1
-            stable = _positive_definite(self.K_last)
-            ns = _node_state(topo, self.bt, q_new)
-            u_in, _, _ = _port(topo, ns, topo.input_node, self.bt.d_in)
-            u_out, _, _ = _port(topo, ns, topo.output_node, self.bt.d_out)
+            stable, u_in, u_out = self.stable, self.u_in, self.u_out
             for b in np.flatnonzero(alive):
                 if self.disp and n_inc == 1 and lam_new[b] <= 0:
                     errors[b] = UnreachableTargetError(
@@ -562,73 +442,38 @@ class _Run:
                             residual, alive, errors, n_inc)
 
     def newton(self, q, lam, goal, alive, lam_scale, verify=True):
-        """Equilibrium iterations at one increment; returns (ok, q, lam, residual).
+        """Equilibrium iterations at one increment, each design on its own; returns
+        (ok, q, lam, residual) and keeps, per design, whether the last tangent stiffness
+        (under the dead input load) is positive definite and both ports' travel.
 
         Without ``verify`` (intermediate increments) the state is accepted after a correction
         made from a residual below 1e-4: Newton's quadratic convergence leaves about 1e-8,
         and the next increment's iterations start from there.
         The last increment is always verified by evaluating the residual it reports.
+        A state is converged when its relative residual is below ``tol``, or stalled at
+        round-off (below sqrt(tol) and no longer halving: the condition number of a long
+        slender chain limits what the linear solves can reach).
         """
-        o, topo = self.o, self.topo
-        nd = topo.n_dof
-        res = prev_res = np.full(self.B, np.inf)
-        for _ in range(o.max_iterations):
-            w = self.bt.dof_weight
-            if self.disp:
-                r, K, g_in, u_out, g_out = self.residual(q, lam)
-                scale = np.maximum(np.abs(lam), lam_scale * 1e-3) * np.linalg.norm(g_in * w, axis=1)
-                c = u_out - goal
-                res = np.maximum(np.linalg.norm(r * w, axis=1) / scale, np.abs(c) / max(self.target, 1e-12))
-                A = np.zeros((self.B, nd + 1, nd + 1))
-                A[:, :nd, :nd] = K
-                A[:, :nd, nd] = -g_in
-                A[:, nd, :nd] = g_out
-                rhs = -np.concatenate([r, c[:, None]], axis=1)
-            else:
-                lam = np.full(self.B, goal)
-                r, K, g_in, _, _ = self.residual(q, lam)
-                scale = goal * np.linalg.norm(g_in * w, axis=1)
-                res = np.linalg.norm(r * w, axis=1) / scale
-                A, rhs = K, -r
-            # converged, or stalled at round-off (no halving below sqrt(tol): the condition
-            # number of a long slender chain limits what the linear solves can reach)
-            done = (res < o.tol) | ((res < np.sqrt(o.tol)) & (res > 0.5 * prev_res)) | ~alive
-            prev_res = res
-            self.K_last = K
-            if done.all():
-                return np.ones(self.B, bool), q, lam, res
-            try:
-                sol = np.linalg.solve(A, rhs[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                sol = np.full(rhs.shape, np.nan)
-                for b in range(self.B):
-                    try:
-                        sol[b] = np.linalg.solve(A[b], rhs[b])
-                    except np.linalg.LinAlgError:
-                        pass
-            if not np.isfinite(sol[~done]).all():
-                bad = ~np.isfinite(sol).all(1) & ~done
-                if bad.any() and self.B == 1:
-                    raise SingularSystemError(
-                        f"the system of eqs 85-86 is singular at input force {lam[0]:.4g} N "
-                        f"(residual {res[0]:.2e}): the model is a mechanism or lacks a support")
-                sol[bad] = 0.0
-            sol[done] = 0.0
-            q = _apply(topo, q, sol[:, :nd])
-            if self.disp:
-                lam = lam + sol[:, nd]
-            if not verify and ((res < 1e-4) | ~alive).all():
-                return np.ones(self.B, bool), q, lam, res
-        return res < np.sqrt(o.tol), q, lam, res
+        o, B = self.o, self.B
+        q, lam = np.ascontiguousarray(q, dtype=float), np.array(lam, dtype=float)
+        status, res = np.zeros(B, dtype=np.int64), np.zeros(B)
+        self.stable, self.u_in, self.u_out = np.zeros(B, dtype=bool), np.zeros(B), np.zeros(B)
+        _kernel.increment(q, lam, float(goal), float(self.target), np.asarray(lam_scale, dtype=float),
+                          alive, verify, self.disp, o.tol, o.max_iterations, self.topo.kernel_args,
+                          self.bt_args, self.bt.dof_weight, self.bt.d_in, self.work,
+                          status, res, self.stable, self.u_in, self.u_out)
+        singular = alive & (status == _kernel.SINGULAR)
+        if singular.any() and B == 1:
+            raise SingularSystemError(
+                f"the system of eqs 85-86 is singular at input force {lam[0]:.4g} N "
+                f"(residual {res[0]:.2e}): the model is a mechanism or lacks a support")
+        return status == _kernel.CONVERGED, q, lam, res
 
     def collect(self, q, lam, F, u_in, u_out, residual, alive, errors, n_inc):
         topo, bt = self.topo, self.bt
-        if getattr(self, "last_state", (None,))[0] is q:   # the verified final state
-            _, ns, defo, qf, u_member = self.last_state
-            u, th, rho = ns
-        else:
-            u, th, rho = ns = _node_state(topo, bt, q)
-            defo, qf, _, _, u_member = _elements(topo, bt, ns)
+        u, th = np.zeros(bt.X.shape), np.zeros(bt.X.shape[:2])
+        defo, qf, u_member = np.zeros(bt.L0.shape + (3,)), np.zeros(bt.L0.shape + (3,)), np.zeros(bt.L0.shape)
+        _kernel.final_state(q, topo.kernel_args, self.bt_args, self.work, u, th, defo, qf, u_member)
         x = bt.X + u
         se = u_member.sum(axis=1)
         work = simpson(F, x=u_in, axis=0)

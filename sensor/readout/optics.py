@@ -17,7 +17,10 @@ face that re-enters the core after the mirror, reflectivity and Fresnel losses e
 
       eta(L) = integral_0^1 c(L tan(asin(NA sqrt(u)))) du,
 
-  evaluated with ``scipy.integrate.quad``. eta(0) = 1 exactly and eta -> a^2 / (NA^2 L^2)
+  evaluated for all gaps at once with a fixed 32-point Gauss-Legendre rule after the
+  substitution u = u_edge sin^2(t) (u_edge: where c reaches 0), which takes away the
+  square-root behaviour at both ends, so the rule converges exponentially (it agrees with
+  adaptive quadrature within 1e-11). eta(0) = 1 exactly and eta -> a^2 / (NA^2 L^2)
   in the far field (a = core radius). Every ray that reaches the core arrives within the
   acceptance angle, so it is guided.
 * ``"gaussian"``: the fiber emits a (multimode, embedded) Gaussian beam whose 1/e^2 radius
@@ -42,7 +45,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy.integrate import quad
 
 from sensor.errors import OpticsError
 
@@ -147,30 +149,29 @@ def _model(model: str) -> str:
     return model
 
 
-def _core_overlap(x: float) -> float:
-    """Normalised overlap area of two equal disks whose centres are x diameters apart."""
-    return (2.0 / math.pi) * (math.acos(x) - x * math.sqrt(1.0 - x * x)) if x < 1.0 else 0.0
+#: Gauss-Legendre nodes and weights on [-1, 1] of the image-fiber integrals.
+_X, _W = np.polynomial.legendre.leggauss(32)
 
 
-def _geometric_terms(gap: float, setup: OpticsSetup) -> tuple[float, float]:
-    """(eta, d eta / d gap in 1/mm) of the image-fiber model at one gap (mm)."""
+def _geometric_terms(gap: np.ndarray, setup: OpticsSetup) -> tuple[np.ndarray, np.ndarray]:
+    """(eta, d eta / d gap in 1/mm) of the image-fiber model at gaps (mm), any shape."""
     na, two_a = setup.numerical_aperture, setup.core_diameter_mm
-    length = 2.0 * gap
-
-    def tan_theta(u: float) -> float:
-        return math.tan(math.asin(na * math.sqrt(u)))
-
-    # Beyond u_max the ray lands one core diameter or more off its origin: c = 0 there.
-    if length * tan_theta(1.0) <= two_a:
-        u_max = 1.0
-    else:
-        u_max = (two_a / math.hypot(two_a, length) / na) ** 2
-    eta = quad(lambda u: _core_overlap(length * tan_theta(u) / two_a), 0.0, u_max,
-               epsabs=1e-13, epsrel=1e-11, limit=200)[0]
+    length = 2.0 * gap[..., None]
+    # u_edge: where a ray lands one core diameter off its origin (c = 0 beyond). With
+    # u = u_edge sin^2(t) both the start (c ~ sqrt(u)) and that edge (sqrt(1 - x^2) ~ cos t)
+    # are smooth in t, also when the edge lies just beyond u = 1.
+    u_edge = (two_a / np.hypot(two_a, length) / na) ** 2
+    t_end = np.arcsin(np.sqrt(np.minimum(1.0 / u_edge, 1.0)))
+    t = 0.5 * t_end * (_X + 1.0)
+    u = u_edge * np.sin(t) ** 2
+    du = 0.5 * t_end * _W * u_edge * np.sin(2.0 * t)    # weights times du/dt
+    tan_theta = na * np.sqrt(u) / np.sqrt(1.0 - na * na * u)
+    x = np.minimum(length * tan_theta / two_a, 1.0)     # centre offset in core diameters
+    root = np.sqrt(1.0 - x * x)
+    overlap = (2.0 / math.pi) * (np.arccos(x) - x * root)  # c(x): circle-circle overlap
+    eta = (du * overlap).sum(-1)
     # dc/dx = -(4/pi) sqrt(1 - x^2); x = L tan / (2a); dL/dgap = 2.
-    deta_dl = quad(lambda u: -(4.0 / math.pi) * tan_theta(u) / two_a
-                   * math.sqrt(max(0.0, 1.0 - (length * tan_theta(u) / two_a) ** 2)),
-                   0.0, u_max, epsabs=1e-13, epsrel=1e-11, limit=200)[0]
+    deta_dl = (du * (-(4.0 / math.pi) * tan_theta / two_a * root)).sum(-1)
     return eta, 2.0 * deta_dl
 
 
@@ -186,10 +187,7 @@ def _efficiency_and_slope(gap_mm, setup: OpticsSetup, model: str):
     gap = _gaps(gap_mm)
     if _model(model) == "gaussian":
         return _gaussian_terms(gap, setup)
-    flat = gap.ravel()
-    unique, inverse = np.unique(flat, return_inverse=True)
-    terms = np.array([_geometric_terms(float(g), setup) for g in unique]).reshape(-1, 2)
-    return terms[inverse, 0].reshape(gap.shape), terms[inverse, 1].reshape(gap.shape)
+    return _geometric_terms(gap, setup)
 
 
 def collection_efficiency(gap_mm, setup: OpticsSetup, model: str = "geometric") -> np.ndarray:

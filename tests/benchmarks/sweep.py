@@ -1,11 +1,21 @@
-"""Benchmark: the default sweep (both hinge sets, 41 x 41), serial and parallel.
+"""Benchmark: the default sweep (both hinge sets, 41 x 41) and how it scales.
 
-Prints one JSON object: configurations per second serial and parallel (the solve phase),
-and the wall time of the whole `dacm sweep` command (start to last figure written).
+Prints one JSON object:
+* wall_s: the whole `dacm sweep` command of this checkout (interpreter start, imports, the
+  sweep on every core, dataset, CSV, Pareto tables, every figure), median of 3 runs, and
+  its peak resident memory per process (the largest of the command and its workers);
+* cells_per_s: the solve phase (run_sweep on every core) at 21^2, 41^2 and 81^2 phi1 x phi2
+  cells per hinge set: linear scaling keeps it flat;
+* peak_rss_MB: peak resident memory of `dacm sweep --workers 1 --no-plots` (one process
+  holds the dataset and solves every row) at the same grids: the growth per cell shows the
+  dataset is the only thing that grows with the grid.
+
+Run from the repository root: python -m tests.benchmarks.sweep
 """
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -15,26 +25,46 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from sensor.design_space.execution import run_sweep  # noqa: E402
-from sensor.design_space.spec import SweepSpec
+from sensor.design_space.spec import Grid, SweepSpec  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+DACM = "import sys; from sensor.cli import main; sys.exit(main())"
+SIZES = (21, 41, 81)
+
+
+def command(*args) -> tuple[float, float]:
+    """Wall time (s) and peak RSS (MB, largest process) of one `dacm` command run alone."""
+    code = ("import resource, subprocess, sys, time; t = time.perf_counter(); "
+            "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
+            "print(time.perf_counter() - t, "
+            "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)")
+    out = subprocess.run([sys.executable, "-c", code, sys.executable, "-c", DACM, *args],
+                         cwd=ROOT, check=True, capture_output=True, text=True).stdout.split()
+    return float(out[0]), float(out[1])
+
+
+def grid(n: int) -> list[str]:
+    d = SweepSpec()
+    return ["--phi1", f"{d.phi1.start:g}:{d.phi1.stop:g}:{n}", "--phi2", f"{d.phi2.start:g}:{d.phi2.stop:g}:{n}"]
 
 
 def main():
-    spec = SweepSpec()
-    n = len(spec.hinge_sets) * spec.phi1.n * spec.phi2.n
-    out = {"cells": n}
-    for label, workers in (("serial", 1), ("parallel", os.cpu_count() or 2)):
-        t0 = time.perf_counter()
-        run_sweep(spec, "bench", workers=workers)
-        dt = time.perf_counter() - t0
-        out[f"{label}_configs_per_s"] = round(n / dt, 1)
-        out[f"{label}_s"] = round(dt, 2)
-    out["workers_parallel"] = os.cpu_count()
+    d = SweepSpec()
+    out = {"cells": len(d.hinge_sets) * d.phi1.n * d.phi2.n, "workers": os.cpu_count()}
     with tempfile.TemporaryDirectory() as tmp:
-        dacm = Path(sys.executable).with_name("dacm")
-        t0 = time.perf_counter()
-        subprocess.run([str(dacm), "sweep", "--out", tmp, "--quiet"], check=True, capture_output=True)
-        out["command_wall_s"] = round(time.perf_counter() - t0, 2)
-    out["thesis_estimate_s"] = round(n * 0.5, 1)
+        runs = [command("sweep", "--out", tmp, "--quiet") for _ in range(3)]
+        out["wall_s"] = round(sorted(r[0] for r in runs)[1], 2)
+        out["wall_runs_s"] = [round(r[0], 2) for r in runs]
+        out["command_peak_rss_MB_per_process"] = round(max(r[1] for r in runs), 1)
+        out["cells_per_s"], out["peak_rss_MB"] = {}, {}
+        for n in SIZES:
+            spec = SweepSpec(phi1=Grid(d.phi1.start, d.phi1.stop, n), phi2=Grid(d.phi2.start, d.phi2.stop, n))
+            t0 = time.perf_counter()
+            run_sweep(spec, "bench")
+            out["cells_per_s"][f"{n}x{n}"] = round(len(d.hinge_sets) * n * n / (time.perf_counter() - t0))
+            _, rss = command("sweep", "--out", tmp, "--quiet", "--workers", "1", "--no-plots", *grid(n))
+            out["peak_rss_MB"][f"{n}x{n}"] = round(rss, 1)
+    out["thesis_estimate_s"] = round(out["cells"] * 0.5, 1)
     print(json.dumps(out))
 
 

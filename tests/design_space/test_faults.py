@@ -119,10 +119,11 @@ def _alive(pid: int) -> bool:
 
 
 def _start_sweep(tmp_path) -> subprocess.Popen:
-    """`dacm sweep` in a child process with 2 workers on a grid that takes a while."""
+    """`dacm sweep` in a child process with 2 workers on a grid that takes a while (12 800
+    cells, about 10 s on 2 cores: still running when the tests stop it after 3 s)."""
     code = "import sys; from sensor.cli import main; sys.exit(main())"
-    return subprocess.Popen([sys.executable, "-c", code, "sweep", "--phi1", "8:30:40", "--phi2",
-                             "6:50:40", "--workers", "2", "--out", str(tmp_path), "--quiet",
+    return subprocess.Popen([sys.executable, "-c", code, "sweep", "--phi1", "8:30:80", "--phi2",
+                             "6:50:80", "--workers", "2", "--out", str(tmp_path), "--quiet",
                              "--no-plots"], cwd=ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
@@ -184,7 +185,7 @@ def test_lost_scheduler_from_the_command_line_is_one_line(cluster, tmp_path):
     """The command line adds distributed's own logging to the picture: still one line."""
     address, procs = cluster
     code = "import sys; from sensor.cli import main; sys.exit(main())"
-    proc = subprocess.Popen([sys.executable, "-c", code, "sweep", "--phi1", "8:30:40", "--phi2", "6:50:40",
+    proc = subprocess.Popen([sys.executable, "-c", code, "sweep", "--phi1", "8:30:80", "--phi2", "6:50:40",
                              "--scheduler", address, "--out", str(tmp_path), "--quiet", "--no-plots"],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(4)

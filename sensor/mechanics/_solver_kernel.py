@@ -1,0 +1,360 @@
+"""Compiled inner loop of the chain-algorithm solver (thesis section 6.2.1, eqs 80-86).
+
+One design at a time: the member forces and tangents in their co-rotational chord frames
+(eqs 80-82 with the bowing term), their assembly on the rigid bodies' dofs, and Newton's
+equilibrium iterations of one load increment (eqs 85-86 with the loop closure). The linear
+systems are solved by Gaussian elimination with partial pivoting that skips the zeros of the
+banded stiffness matrix (:func:`sensor.mechanics.solver.prepare` numbers the bodies so that
+the band is narrow). :mod:`sensor.mechanics.solver` drives the increments, checks every
+increment and builds the results; the formulas are explained there. Units: mm, N, N mm.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+TWO_PI = 2.0 * math.pi
+#: Newton statuses of one design at one increment.
+CONVERGED, NOT_CONVERGED, SINGULAR = 0, 1, 2
+#: Intermediate increments accept a state after a correction from a residual below this
+#: (Newton's quadratic convergence leaves ~1e-8; the next increment starts from there).
+EARLY_ACCEPT = 1e-4
+
+#: Scratch arrays of one design's evaluation and linear solve (reused across designs).
+Work = namedtuple("Work", "u th rho defo qf f Ke Bm KB z r F Kg g_in g_out W x L")
+
+
+def work(n_nodes: int, n_dof: int) -> Work:
+    """Scratch arrays for a topology of n_nodes nodes and n_dof reduced dofs."""
+    e = np.empty
+    return Work(e((n_nodes, 2)), e(n_nodes), e((n_nodes, 2)), e(3), e(3), e(6), e((6, 6)),
+                e((3, 6)), e((3, 6)), e(6), e(6), e(n_dof), e((n_dof, n_dof)), e(n_dof),
+                e(n_dof), e((n_dof + 1, n_dof + 2)), e(n_dof), np.zeros((n_dof, n_dof)))
+
+
+@njit(cache=True, error_model="numpy")
+def _wrap(a):
+    return (a + math.pi) % TWO_PI - math.pi
+
+
+@njit(cache=True, error_model="numpy")
+def node_state(q, body_of_node, r0, u, th, rho):
+    """Displacements u (n, 2), rotations th (n,) and current offsets rho (n, 2) of the nodes
+    from the bodies' translations and rotations q (c, 3); cos - 1 without cancellation."""
+    for i in range(body_of_node.shape[0]):
+        b = body_of_node[i]
+        t = q[b, 2]
+        s = math.sin(t)
+        h = math.sin(t / 2)
+        cm1 = -2.0 * (h * h)
+        tx = cm1 * r0[i, 0] - s * r0[i, 1]
+        ty = s * r0[i, 0] + cm1 * r0[i, 1]
+        u[i, 0] = q[b, 0] + tx
+        u[i, 1] = q[b, 1] + ty
+        th[i] = t
+        rho[i, 0] = r0[i, 0] + tx
+        rho[i, 1] = r0[i, 1] + ty
+
+
+@njit(cache=True, error_model="numpy")
+def element(k, ea, eb, d0, L0, beta0, Kn, u, th, rho, defo, qf, f, K, Bm, KB, z, r):
+    """Member k: chord-frame deformations defo (stretch, theta_a, theta_b), conjugate forces
+    qf (N, M_a, M_b), node forces f (6,) and tangent K (6, 6) on the dofs of the two bodies
+    (x, y, rotation of the body at a, then at b). Returns the member's strain energy, mJ."""
+    a, b = ea[k], eb[k]
+    du0 = u[b, 0] - u[a, 0]
+    du1 = u[b, 1] - u[a, 1]
+    dx = d0[k, 0] + du0
+    dy = d0[k, 1] + du1
+    Ln = math.sqrt(dx * dx + dy * dy)
+    stretch = (2 * (d0[k, 0] * du0 + d0[k, 1] * du1) + du0 * du0 + du1 * du1) / (Ln + L0[k])
+    c, s = dx / Ln, dy / Ln
+    alpha = _wrap(math.atan2(s, c) - beta0[k])
+    t1 = _wrap(th[a] - alpha)
+    t2 = _wrap(th[b] - alpha)
+    defo[0], defo[1], defo[2] = stretch, t1, t2
+    # bowing: the axis is longer than the chord by L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30
+    c30 = L0[k] / 30.0
+    e0 = stretch + c30 * (2 * t1 * t1 - t1 * t2 + 2 * t2 * t2)
+    kn = Kn[k]
+    q0 = kn[0, 0] * e0 + kn[0, 1] * t1 + kn[0, 2] * t2
+    q1 = kn[1, 0] * e0 + kn[1, 1] * t1 + kn[1, 2] * t2
+    q2 = kn[2, 0] * e0 + kn[2, 1] * t1 + kn[2, 2] * t2
+    b1, b2 = c30 * (4 * t1 - t2), c30 * (4 * t2 - t1)
+    qf[0], qf[1], qf[2] = q0, q1 + q0 * b1, q2 + q0 * b2
+    energy = 0.5 * (e0 * q0 + t1 * q1 + t2 * q2)
+    # local tangent J^T Kn J + N d2(bow)/d(theta)2, J = I + e0 (0, b1, b2)
+    ka, nb = kn[0, 0], q0 * c30
+    k01, k02 = kn[0, 1] + ka * b1, kn[0, 2] + ka * b2
+    k11 = kn[1, 1] + ka * b1 * b1 + 4 * nb
+    k22 = kn[2, 2] + ka * b2 * b2 + 4 * nb
+    k12 = kn[1, 2] + ka * b1 * b2 - nb
+    # r = d(stretch)/dx, z = Ln d(chord angle)/dx in node dofs (xa, ya, ta, xb, yb, tb)
+    r[0], r[1], r[2], r[3], r[4], r[5] = -c, -s, 0.0, c, s, 0.0
+    z[0], z[1], z[2], z[3], z[4], z[5] = s, -c, 0.0, -s, c, 0.0
+    inv = -1.0 / Ln
+    for j in range(6):
+        Bm[0, j] = r[j]
+        Bm[1, j] = z[j] * inv
+        Bm[2, j] = z[j] * inv
+    Bm[1, 2] += 1.0
+    Bm[2, 5] += 1.0
+    for j in range(6):
+        KB[0, j] = ka * Bm[0, j] + k01 * Bm[1, j] + k02 * Bm[2, j]
+        KB[1, j] = k01 * Bm[0, j] + k11 * Bm[1, j] + k12 * Bm[2, j]
+        KB[2, j] = k02 * Bm[0, j] + k12 * Bm[1, j] + k22 * Bm[2, j]
+        f[j] = Bm[0, j] * qf[0] + Bm[1, j] * qf[1] + Bm[2, j] * qf[2]
+    gz = qf[0] / Ln
+    gr = (qf[1] + qf[2]) / (Ln * Ln)
+    for i in range(6):
+        for j in range(6):
+            K[i, j] = (Bm[0, i] * KB[0, j] + Bm[1, i] * KB[1, j] + Bm[2, i] * KB[2, j]
+                       + gz * z[i] * z[j] + gr * (r[i] * z[j] + z[i] * r[j]))
+    # node dofs -> body dofs: x_node = x_master + rho, d x_node / d theta_body = perp(rho);
+    # K_body = T^T K T plus the turning of rho under the node force
+    for col in (2, 5):
+        base = col - 2
+        px, py = -rho[a if col == 2 else b, 1], rho[a if col == 2 else b, 0]
+        for i in range(6):
+            K[i, col] += K[i, base] * px + K[i, base + 1] * py
+        for j in range(6):
+            K[col, j] += K[base, j] * px + K[base + 1, j] * py
+        f[col] += f[base] * px + f[base + 1] * py
+    K[2, 2] -= rho[a, 0] * f[0] + rho[a, 1] * f[1]
+    K[5, 5] -= rho[b, 0] * f[3] + rho[b, 1] * f[4]
+    return energy
+
+
+@njit(cache=True, error_model="numpy")
+def _port(node, direction, body_of_node, dof_of_body, u, rho, g):
+    """Travel of a node along a direction, and its gradient g on the reduced dofs."""
+    dofs = dof_of_body[body_of_node[node]]
+    for i in range(g.shape[0]):
+        g[i] = 0.0
+    gx, gy = direction[0], direction[1]
+    gt = -rho[node, 1] * direction[0] + rho[node, 0] * direction[1]
+    if dofs[0] >= 0:
+        g[dofs[0]] = gx
+    if dofs[1] >= 0:
+        g[dofs[1]] = gy
+    if dofs[2] >= 0:
+        g[dofs[2]] = gt
+    return u[node, 0] * direction[0] + u[node, 1] * direction[1]
+
+
+@njit(cache=True, error_model="numpy")
+def _evaluate(q, lam, topo, bt, b, w):
+    """Residual w.F (out-of-balance forces, F - lam g_in), tangent w.K, the input port's
+    gradient w.g_in and the output port's gradient w.g_out at state q; returns the output travel."""
+    body_of_node, dof_of_body, ea, eb, elem_dofs, in_node, out_node = topo[:7]
+    r0, d0, L0, beta0, Kn, f_in, d_out = bt
+    node_state(q, body_of_node, r0[b], w.u, w.th, w.rho)
+    nd = w.F.shape[0]
+    for i in range(nd):
+        w.F[i] = 0.0
+        for j in range(nd):
+            w.Kg[i, j] = 0.0
+    for k in range(ea.shape[0]):
+        element(k, ea, eb, d0[b], L0[b], beta0[b], Kn[b], w.u, w.th, w.rho, w.defo, w.qf, w.f,
+                w.Ke, w.Bm, w.KB, w.z, w.r)
+        for i in range(6):
+            di = elem_dofs[k, i]
+            if di < 0:
+                continue
+            w.F[di] += w.f[i]
+            for j in range(6):
+                dj = elem_dofs[k, j]
+                if dj >= 0:
+                    w.Kg[di, dj] += w.Ke[i, j]
+    _port(in_node, f_in[b], body_of_node, dof_of_body, w.u, w.rho, w.g_in)
+    travel = _port(out_node, d_out[b], body_of_node, dof_of_body, w.u, w.rho, w.g_out)
+    # dead load lam f_in at the input node: its moment arm turns with the body
+    for i in range(nd):
+        w.F[i] -= lam * w.g_in[i]
+    rot = dof_of_body[body_of_node[in_node], 2]
+    if rot >= 0:
+        w.Kg[rot, rot] += lam * (w.rho[in_node, 0] * f_in[b, 0] + w.rho[in_node, 1] * f_in[b, 1])
+    return travel
+
+
+@njit(cache=True, error_model="numpy")
+def solve_in_place(W, m, ncore, row_end, reach):
+    """Solve the m x m system W[:m, :m] x = W[:m, m] by Gaussian elimination with partial
+    pivoting; x replaces W[:m, m]. Rows and columns below ``ncore`` are banded: row i's
+    nonzeros end at column row_end[i] and column k's at row reach[k] (nondecreasing); the
+    kernel skips the zeros outside, tracking the fill-in of the row exchanges. Rows and
+    columns from ncore to m - 1 are dense. Returns False if a pivot is exactly zero
+    (singular) or the solution is not finite."""
+    hi = np.empty(m, dtype=np.int64)
+    for i in range(m):
+        if i < ncore:
+            hi[i] = row_end[i]
+        else:
+            last = -1
+            for j in range(ncore):
+                if W[i, j] != 0.0:
+                    last = j
+            hi[i] = last
+    for k in range(m):
+        last = reach[k] if k < ncore else m - 1      # the last core row that can reach column k
+        p, big = k, abs(W[k, k])
+        for i in range(k + 1, last + 1):
+            v = abs(W[i, k])
+            if v > big:
+                p, big = i, v
+        for i in range(max(last + 1, ncore), m):
+            v = abs(W[i, k])
+            if v > big:
+                p, big = i, v
+        if big == 0.0:
+            return False
+        if p != k:
+            for j in range(k, m + 1):
+                W[k, j], W[p, j] = W[p, j], W[k, j]
+            hi[k], hi[p] = hi[p], hi[k]
+        pivot = W[k, k]
+        end = hi[k]
+        for i in range(k + 1, m):
+            if i > last and i < ncore:
+                continue
+            if W[i, k] == 0.0:
+                continue
+            lik = W[i, k] / pivot
+            W[i, k] = 0.0
+            for j in range(k + 1, end + 1):
+                W[i, j] -= lik * W[k, j]
+            for j in range(max(ncore, k + 1), m + 1):
+                W[i, j] -= lik * W[k, j]
+            hi[i] = max(hi[i], end)
+    for i in range(m - 1, -1, -1):
+        s = W[i, m]
+        for j in range(i + 1, hi[i] + 1):
+            s -= W[i, j] * W[j, m]
+        for j in range(max(ncore, i + 1), m):
+            s -= W[i, j] * W[j, m]
+        x = s / W[i, i]
+        if not math.isfinite(x):
+            return False
+        W[i, m] = x
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def positive_definite(K, L, row_start):
+    """Whether the symmetric part of K (n, n) is positive definite: Cholesky into L within
+    the envelope (row i's nonzeros start at column row_start[i])."""
+    n = K.shape[0]
+    for j in range(n):
+        d = K[j, j]
+        for k in range(row_start[j], j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, n):
+            if row_start[i] > j:
+                continue
+            s = 0.5 * (K[i, j] + K[j, i])
+            for k in range(max(row_start[i], row_start[j]), j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / L[j, j]
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def _apply(q, x, dof_of_body):
+    for c in range(dof_of_body.shape[0]):
+        for k in range(3):
+            d = dof_of_body[c, k]
+            if d >= 0:
+                q[c, k] += x[d]
+
+
+@njit(cache=True, error_model="numpy")
+def _norm(v, weight):
+    s = 0.0
+    for i in range(v.shape[0]):
+        s += (v[i] * weight[i]) ** 2
+    return math.sqrt(s)
+
+
+@njit(cache=True, error_model="numpy")
+def _newton(q, lam, goal, target, lam_scale, verify, disp, tol, max_iterations, topo, bt, b, weight, w):
+    """Equilibrium iterations of one design at one increment (see solver._Run.newton).
+    Returns (status, lam, residual); q is updated in place and w.Kg holds the last tangent."""
+    nd = w.F.shape[0]
+    m = nd + 1 if disp else nd
+    res = prev = np.inf
+    stall = math.sqrt(tol)
+    for _ in range(max_iterations):
+        if not disp:
+            lam = goal
+        u_out = _evaluate(q, lam, topo, bt, b, w)
+        if disp:
+            scale = max(abs(lam), lam_scale * 1e-3) * _norm(w.g_in, weight)
+            c = u_out - goal
+            res = max(_norm(w.F, weight) / scale, abs(c) / max(target, 1e-12))
+        else:
+            res = _norm(w.F, weight) / (goal * _norm(w.g_in, weight))
+        # converged, or stalled at round-off (no halving below sqrt(tol))
+        if res < tol or (res < stall and res > 0.5 * prev):
+            return CONVERGED, lam, res
+        prev = res
+        W = w.W
+        for i in range(nd):
+            for j in range(nd):
+                W[i, j] = w.Kg[i, j]
+            W[i, m] = -w.F[i]
+        if disp:
+            for i in range(nd):
+                W[i, nd] = -w.g_in[i]
+                W[nd, i] = w.g_out[i]
+            W[nd, nd] = 0.0
+            W[nd, m] = -c
+        if not solve_in_place(W, m, nd, topo[8], topo[9]):
+            return SINGULAR, lam, res
+        for i in range(nd):
+            w.x[i] = W[i, m]
+        _apply(q, w.x, topo[1])
+        if disp:
+            lam = lam + W[nd, m]
+        if not verify and res < EARLY_ACCEPT:
+            return CONVERGED, lam, res
+    return (CONVERGED if res < stall else NOT_CONVERGED), lam, res
+
+
+@njit(cache=True, error_model="numpy")
+def increment(q, lam, goal, target, lam_scale, alive, verify, disp, tol, max_iterations, topo, bt,
+              weight, d_in, w, status, res, stable, u_in, u_out):
+    """Newton at one increment for every alive design of a batch, each on its own: q (B, c, 3)
+    and lam (B,) are updated in place; per design the status, the residual, whether the last
+    tangent is positive definite, and both ports' travel at the new state."""
+    body_of_node, in_node, out_node = topo[0], topo[5], topo[6]
+    d_out = bt[6]
+    for b in range(q.shape[0]):
+        if not alive[b]:
+            status[b] = CONVERGED
+            continue
+        status[b], lam[b], res[b] = _newton(q[b], lam[b], goal, target, lam_scale[b], verify, disp,
+                                            tol, max_iterations, topo, bt, b, weight[b], w)
+        stable[b] = status[b] == CONVERGED and positive_definite(w.Kg, w.L, topo[7])
+        node_state(q[b], body_of_node, bt[0][b], w.u, w.th, w.rho)
+        u_in[b] = w.u[in_node, 0] * d_in[b, 0] + w.u[in_node, 1] * d_in[b, 1]
+        u_out[b] = w.u[out_node, 0] * d_out[b, 0] + w.u[out_node, 1] * d_out[b, 1]
+
+
+@njit(cache=True, error_model="numpy")
+def final_state(q, topo, bt, w, u, th, defo, qf, energy):
+    """Node displacements u (B, n, 2) and rotations th (B, n), member deformations defo and
+    forces qf (B, e, 3) and strain energies (B, e) at the states q (B, c, 3)."""
+    body_of_node, ea, eb = topo[0], topo[2], topo[3]
+    r0, d0, L0, beta0, Kn = bt[0], bt[1], bt[2], bt[3], bt[4]
+    for b in range(q.shape[0]):
+        node_state(q[b], body_of_node, r0[b], u[b], th[b], w.rho)
+        for k in range(ea.shape[0]):
+            energy[b, k] = element(k, ea, eb, d0[b], L0[b], beta0[b], Kn[b], u[b], th[b], w.rho,
+                                   defo[b, k], qf[b, k], w.f, w.Ke, w.Bm, w.KB, w.z, w.r)
