@@ -67,41 +67,52 @@ def run(args: argparse.Namespace) -> int:
     with task_pool(args.workers, args.scheduler) as pool:
         try:
             best = optimise(problem, pool)
-            basis = optimise(basis_problem, pool)
         except DesignError as exc:
             raise DesignError(_flagged(str(exc))) from None
+        try:
+            basis, no_basis = optimise(basis_problem, pool), ""
+        except DesignError as exc:   # a DACM may reach ranges no basis body does
+            basis, no_basis = None, str(exc)
     tag = f"{args.range_N:g}N".replace("+", "")
     design = rounded(best.best.design, f"design-{tag}" + ("-robust" if args.robust else ""))
-    basis_design = rounded(basis.best.design, f"basis-{tag}")
-    ours, theirs = describe(design, problem), describe(basis_design, basis_problem)
+    basis_design = None if basis is None else rounded(basis.best.design, f"basis-{tag}")
+    ours = describe(design, problem)
+    theirs = None if basis is None else describe(basis_design, basis_problem)
     args.out.mkdir(parents=True, exist_ok=True)
-    paths = [args.out / f for f in FILES]
+    paths = [args.out / f for f in FILES[:3 if basis is None else 4]]
     save_design(design, paths[0])
     with atomic_path(paths[1]) as tmp:
         tmp.write_text(json.dumps(ours["datasheet"], indent=1))
     save_figure(profile_figure(design), paths[2], dpi=150)
-    save_design(basis_design, paths[3])
+    if basis is not None:
+        save_design(basis_design, paths[3])
     keys = ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",
             "strain_energy_mJ", "stress_utilisation")
     out = {k: ours[k] for k in keys}
     if args.robust:
         out.update(quality_p10_mm_per_N=best.best.quality_p10_mm_per_N, yield_fraction=best.best.yield_fraction)
-    out.update(basis={k: theirs[k] for k in keys}, evaluations=best.evaluations + basis.evaluations,
-               seconds=best.seconds + basis.seconds, files=[str(p) for p in paths])
+    out.update(basis=None if basis is None else {k: theirs[k] for k in keys},
+               evaluations=best.evaluations + (basis.evaluations if basis else 0),
+               seconds=best.seconds + (basis.seconds if basis else 0.0), files=[str(p) for p in paths])
+    if basis is None:
+        out["basis_unreachable"] = no_basis
     if args.json:
         print(json.dumps(out, indent=1))
         return 0
     print(f"range {args.range_N:g} N at {args.travel:g} mm travel: {out['evaluations']} bodies evaluated "
           f"in {out['seconds']:.1f} s")
-    for label, d in (("DACM", ours), ("basis", theirs)):
+    for label, d in (("DACM", ours), ("basis", theirs)) if theirs else (("DACM", ours),):
         f = d["design"]
         angles = f"phi1 = {f['phi1_deg']:.2f}" + (f", phi2 = {f['phi2_deg']:.2f}" if "phi2_deg" in f else "")
         print(f"  {label:<6} {angles} deg, hinges {' '.join(f'{t:.3f}' for t in f['hinge_thickness_mm'][:12 if label == 'DACM' else 8])} mm")
         print(f"         range {d['range_N']:.4f} N, H = {d['hysteresis']:.4f}, resolution {1e3 * d['resolution_N']:.3f} mN, "
               f"A = {d['amplification']:.3f}, k_out {d['k_out_N_per_mm']:.3f} N/mm, SE {d['strain_energy_mJ']:.4f} mJ, "
               f"stress {d['stress_utilisation']:.2f} x allowable")
-    print(f"  DACM / basis: H {ours['hysteresis'] / theirs['hysteresis']:.3f} (1/A = {1 / ours['amplification']:.3f}), "
-          f"resolution {ours['resolution_N'] / theirs['resolution_N']:.3f}")
+    if theirs:
+        print(f"  DACM / basis: H {ours['hysteresis'] / theirs['hysteresis']:.3f} (1/A = {1 / ours['amplification']:.3f}), "
+              f"resolution {ours['resolution_N'] / theirs['resolution_N']:.3f}")
+    else:
+        print(f"  basis: {no_basis}")
     if args.robust:
         print(f"  robust: 10th-percentile quality {out['quality_p10_mm_per_N']:.2f} mm/N, "
               f"{100 * out['yield_fraction']:.0f} % of the draws can be cut")
@@ -119,8 +130,7 @@ def rounded(design, name: str):
 
 
 def _flagged(message: str) -> str:
-    """A library message with its field named as the flag that sets it."""
+    """A library message with its fields named as the flags that set them."""
     for field, flag in FLAGS.items():
-        if message.startswith(f"{field} = ") or message.startswith(f"{field}: "):
-            return flag + message[len(field):]
+        message = message.replace(f"{field} = ", f"{flag} = ")
     return message

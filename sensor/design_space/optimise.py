@@ -56,6 +56,9 @@ PENALTY = 10.0
 #: FINALISTS of the search are matched to the range exactly before the choice.
 TIE = 1e-3
 FINALISTS = 8
+#: A range this far outside :func:`reachable_range`'s estimate (uniform hinges on a coarse
+#: grid of angles) is refused before the search: unequal hinges reach further.
+REACH_MARGIN = 3.0
 #: Angle bounds (deg): phi1 up to the side links' limit, phi2 as the sweep's default grid.
 PHI1_MIN, PHI2_BOUNDS = 2.0, (2.0, 60.0)
 
@@ -304,6 +307,9 @@ def optimise(problem: DesignProblem, pool=None, popsize: int = 6, maxiter: int =
     a :class:`~sensor.design_space.execution.TaskPool` (default: in this process). Raises
     :class:`DesignError` naming the reachable interval when no candidate is feasible."""
     t0 = time.monotonic()
+    reach = reachable_range(problem)
+    if not (reach[0] / REACH_MARGIN <= problem.range_N <= reach[1] * REACH_MARGIN):
+        raise DesignError(unreachable_message(problem, reach))
     archive: list[Candidate] = []
 
     def scores(X):                        # X: (variables, candidates)
@@ -329,16 +335,16 @@ def optimise(problem: DesignProblem, pool=None, popsize: int = 6, maxiter: int =
     finalists = [c for c in evaluate(problem, np.array([c.x for c in order[:FINALISTS]]).reshape(-1, len(bounds)))
                  if c.score < PENALTY] if order else []
     if not finalists:
-        raise DesignError(unreachable_message(problem))
+        raise DesignError(unreachable_message(problem, reach))
     best = min(c.score for c in finalists)
     ties = [c for c in finalists if c.score <= best + TIE * abs(best)]
     choice = min(ties, key=lambda c: (c.resolution_N, c.score))
     return DesignResult(choice, problem, len(archive) + len(order[:FINALISTS]), time.monotonic() - t0)
 
 
-def unreachable_message(problem: DesignProblem) -> str:
+def unreachable_message(problem: DesignProblem, reach: tuple[float, float]) -> str:
     """The one line for a range no feasible body reaches, naming about where they do."""
-    lo, hi = reachable_range(problem)
+    lo, hi = reach
     return (f"range_N = {problem.range_N:g}: no {problem.body} body within the feasibility rules, "
             f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable stress reaches "
             f"it at {problem.travel_mm:g} mm travel; reachable: about {lo:.3g} to {hi:.3g} N")
