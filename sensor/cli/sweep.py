@@ -158,7 +158,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def print_summary(ds, n_new, t_solve, t_total, written) -> None:
-    from sensor.design_space.equal_range import SAME_RANGE, SUMMARY_RANGES_N, admissible, answer_at
+    from sensor.design_space.equal_range import (
+        SAME_RANGE,
+        SUMMARY_RANGES_N,
+        admissible,
+        answer_at,
+    )
 
     n = int(ds["computed"].size)
     print(f"swept {n} cells ({n_new} computed now) in {t_solve:.1f} s; total {t_total:.1f} s")

@@ -51,7 +51,7 @@ def basis_at_range(ds: xr.Dataset, range_N, stress: bool = True) -> dict[str, np
         x = x[order]
         inside = (lr >= x[0]) & (lr <= x[-1])
 
-        def at(values, log=True):
+        def at(values, log=True, ok=ok, order=order, x=x, inside=inside):
             v = np.asarray(values)[ok][order]
             y = np.interp(lr, x, np.log(v) if log else v)
             return np.where(inside, np.exp(y) if log else y, np.nan)
@@ -142,7 +142,6 @@ def edge_note(ds: xr.Dataset, hinges: str, i: int, j: int) -> str:
     """'' for a cell inside the grid's feasible region; else which edge it is on and where
     the feasible region really ends (found by bisecting the feasibility rules outward)."""
     from geometry.checks import check_design
-
     from sensor.design_space.spec import SweepSpec
 
     spec = SweepSpec(**_spec_args(ds))
