@@ -115,3 +115,27 @@ def test_dataset_follows_cf_conventions(sweep, tmp_path):
         assert ds["feasible"].attrs["flag_meanings"] == "infeasible feasible"
     back = load_dataset(tmp_path / "s.nc")
     assert back["feasible"].dtype == bool and (back["feasible"] == sweep["feasible"]).all()
+
+
+def test_best_cell_on_the_grid_edge_names_where_the_feasible_region_ends(sweep):
+    """This grid stops at phi1 = 32 deg, short of the side links' limit (32.86 deg). The
+    note names the phi1 where the feasible region ends at the cell's phi2 and the rule that
+    ends it; checked directly: feasible 0.01 deg before, that rule broken 0.02 deg after."""
+    import re
+
+    from geometry.checks import check_design
+
+    front = pareto_front(sweep, "03-03")
+    edge = front[front["phi1_deg"] == 32.0]
+    assert len(edge)                     # the front runs along the grid's last column
+    a = answer_at(sweep, "03-03", float(edge["range_N"].iloc[0]))
+    assert a.cell["phi1_deg"] == 32.0
+    m = re.fullmatch(r"phi1 = 32 deg is the grid's last value; feasible cells go on to phi1 = "
+                     r"([\d.]+) deg \((\w+)\)", a.edge)
+    assert m, a.edge
+    end, rule = float(m.group(1)), m.group(2)
+    assert 32.0 < end <= 32.86
+    phi2 = a.cell["phi2_deg"]
+    assert check_design(SPEC.design("03-03", end - 0.01, phi2)).feasible
+    fail = check_design(SPEC.design("03-03", end + 0.02, phi2)).first_failure
+    assert fail is not None and fail.rule == rule
