@@ -1,5 +1,6 @@
 # Two entry points for a fresh clone: `make run` (the main job: the default sweep with its
-# Figure 49 contour plots, into ./dacm-out) and `make test`.
+# equal-range answers and Figure 49 contour plots, then the 5 N design, into ./dacm-out) and
+# `make test`.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -15,6 +16,7 @@ setup: $(BIN)/dacm
 
 run: setup
 	$(BIN)/dacm sweep
+	$(BIN)/dacm design --range 5
 
 test: setup
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2 --dist loadfile; status=$$?; \

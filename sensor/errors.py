@@ -91,3 +91,8 @@ class Terminated(KeyboardInterrupt):
 
 class ResourceNote(UserWarning):
     """A request the tool changed to fit the machine (e.g. more workers than cores)."""
+
+
+class DesignError(SensorInputError):
+    """A range-targeted design that cannot be made: a bad target or bounds, or a range no
+    feasible body reaches (the message names the reachable interval)."""

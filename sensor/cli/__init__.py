@@ -24,7 +24,7 @@ from mri.errors import MriError
 from sensor.errors import ResourceNote, SensorError, SweepInterrupted, Terminated
 
 #: Command modules, in the order ``dacm --help`` lists them.
-COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "sensor", "measure", "report",
+COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "design", "sensor", "measure", "report",
             "snr", "line", "loop")
 
 #: Exceptions that mean "bad input", reported in one line with exit status 2.

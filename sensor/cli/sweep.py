@@ -11,15 +11,16 @@ from pathlib import Path
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "sweep", help="sweep phi1 x phi2 for both hinge sets: dataset, Figure 49, Pareto front",
+        "sweep", help="sweep phi1 x phi2 for both hinge sets: dataset, Figure 49, equal-range answer",
         description="Solve the proposed body at every (phi1, phi2) cell and the basis body at "
                     "every phi1 to the same output travel, for each hinge set; write the "
                     "labelled dataset (NetCDF + CSV), the Figure 49 ratio panels (PNG + SVG), "
-                    "the Pareto front of sensitivity against predicted hysteresis, and print a "
-                    "summary. With no arguments: both hinge sets, a 41 x 41 grid, ./dacm-out.")
+                    "hysteresis and resolution against range with the basis family and the "
+                    "(range, H) front, and print the equal-range answer at 1, 2, 5, 10 and 20 N. "
+                    "With no arguments: both hinge sets, a 41 x 41 grid, ./dacm-out.")
     p.add_argument("--hinges", action="append", metavar="SET",
                    help="hinge set to sweep: 05-03 or 03-03 (repeatable; default both)")
-    p.add_argument("--phi1", metavar="START:STOP:N", help="phi1 grid in degrees (default 6:31:41)")
+    p.add_argument("--phi1", metavar="START:STOP:N", help="phi1 grid in degrees (default 5:33:41)")
     p.add_argument("--phi2", metavar="START:STOP:N", help="phi2 grid in degrees (default 4:56:41)")
     p.add_argument("--target-output", type=float, metavar="MM", help="output travel (default 1 mm)")
     p.add_argument("--config", type=Path, metavar="TOML",
@@ -142,45 +143,59 @@ def run(args: argparse.Namespace) -> int:
     save_dataset(ds, nc)
     written = [nc, write_csv(ds, out / "sweep.csv")]
     fronts = {}
-    from sensor.design_space.plots import pareto_front
+    from sensor.design_space.dataset import write_table
+    from sensor.design_space.equal_range import pareto_front
     for h in ds["hinges"].values:
         fronts[str(h)] = pareto_front(ds, str(h))
-        written.append(write_table(fronts[str(h)], out / f"pareto-{h}.csv"))
+        units = {k: ds[k].attrs["units"] for k in fronts[str(h)].columns}
+        written.append(write_table(fronts[str(h)], out / f"pareto-{h}.csv", units))
     if not args.no_plots:
-        from sensor.design_space.plots import plot_figure49, plot_pareto
+        from sensor.design_space.plots import plot_figure49, plot_hysteresis_vs_range
         written += plot_figure49(ds, out)
-        written += plot_pareto(ds, fronts, out)
-    print_summary(ds, fronts, n_new, t_solve, time.monotonic() - t0, written)
+        written += plot_hysteresis_vs_range(ds, fronts, out)
+    print_summary(ds, n_new, t_solve, time.monotonic() - t0, written)
     return 0
 
 
-def write_table(df, path: Path) -> Path:
-    from geometry.atomic import atomic_path
+def print_summary(ds, n_new, t_solve, t_total, written) -> None:
+    from sensor.design_space.equal_range import (
+        SAME_RANGE,
+        SUMMARY_RANGES_N,
+        admissible,
+        answer_at,
+    )
 
-    with atomic_path(path) as tmp:
-        df.to_csv(tmp, index=False, float_format="%.6g")
-    return path
-
-
-def print_summary(ds, fronts, n_new, t_solve, t_total, written) -> None:
     n = int(ds["computed"].size)
     print(f"swept {n} cells ({n_new} computed now) in {t_solve:.1f} s; total {t_total:.1f} s")
     for h in ds["hinges"].values:
-        sub = ds.sel(hinges=h)
-        feas = sub["feasible"].values
-        print(f"hinge set {h}: {int(feas.sum())} of {feas.size} cells feasible")
-        if not feas.any():
-            continue
-        q = sub["quality_mm_per_N"].values.copy()
-        q[~feas] = -1
-        i, j = divmod(int(q.argmax()), q.shape[1])
-        cell = sub.isel(phi1_deg=i, phi2_deg=j)
-        print(f"  best quality: phi1 = {float(cell.phi1_deg):.2f}, phi2 = {float(cell.phi2_deg):.2f} deg: "
-              f"quality {float(cell.quality_mm_per_N):.2f} mm/N ({float(cell.ratio_quality):.2f} x basis), "
-              f"A = {float(cell.amplification):.2f}, sensitivity {float(cell.sensitivity_mm_per_N):.3f} mm/N, "
-              f"H = {float(cell.hysteresis):.4f}")
-        front = fronts[str(h)]
-        print(f"  Pareto front (sensitivity vs hysteresis): {len(front)} cells, sensitivity "
-              f"{front['sensitivity_mm_per_N'].min():.3f}-{front['sensitivity_mm_per_N'].max():.3f} mm/N, "
-              f"H {front['hysteresis'].min():.4f}-{front['hysteresis'].max():.4f}")
-    print("wrote " + ", ".join(str(p) for p in written[:4]) + f" and {len(written) - 4} more in {written[0].parent}")
+        feas, ok = ds["feasible"].sel(hinges=h).values, admissible(ds, str(h))
+        print(f"hinge set {h}: {int(feas.sum())} of {feas.size} cells feasible, {int(ok.sum())} of them "
+              "within the allowable hinge stress at full scale")
+    print(f"equal range: the DACM cell with the lowest H within {100 * SAME_RANGE:g} % of each range, "
+          "against the basis body of that range with the lowest H (any phi1, hinges 1-8 of any thickness)")
+    for r in SUMMARY_RANGES_N:
+        for h in ds["hinges"].values:
+            print("  " + _answer_line(answer_at(ds, str(h), r)))
+    print(f"wrote {', '.join(str(p.name) for p in written)} in {written[0].parent}")
+
+
+def _answer_line(a) -> str:
+    """One line of the equal-range summary."""
+    head = f"{a.range_N:>4g} N, {a.hinges}: "
+    if a.cell is None:
+        return head + "no cell within the allowable stress reaches this range"
+    c, b = a.cell, a.basis
+    text = (head + f"DACM phi1 = {c['phi1_deg']:.2f}, phi2 = {c['phi2_deg']:.2f} deg, range {c['range_N']:.3g} N, "
+            f"A = {c['amplification']:.2f}, H = {c['hysteresis']:.4f}, resolution {1e3 * c['resolution_N']:.3f} mN; ")
+    if b["hysteresis"] == b["hysteresis"]:
+        text += (f"basis phi1 = {b['phi1_deg']:.1f} deg, hinges {b['hinge_mm']:.3f} mm: H = {b['hysteresis']:.4f}, "
+                 f"resolution {1e3 * b['resolution_N']:.3f} mN; H ratio {c['hysteresis'] / b['hysteresis']:.3f} "
+                 f"(1/A = {1 / c['amplification']:.3f}), "
+                 f"resolution ratio {c['resolution_N'] / b['resolution_N']:.3f}")
+    else:
+        loose = a.basis_any_stress
+        text += "no basis body reaches it within the allowable stress" + (
+            f" (best beyond it: H = {loose['hysteresis']:.4f} at {loose['stress_utilisation']:.2f} x the "
+            f"allowable stress; H ratio {c['hysteresis'] / loose['hysteresis']:.3f})"
+            if loose["hysteresis"] == loose["hysteresis"] else "")
+    return text + (f" [edge: {a.edge}]" if a.edge else "")

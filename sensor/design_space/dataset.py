@@ -14,63 +14,113 @@ import numpy as np
 import xarray as xr
 
 from geometry.params import design_to_dict
+from sensor.design_space.equal_range import fill_equal_range
 from sensor.design_space.spec import SweepSpec
 from sensor.mechanics.qualifiers import Qualifiers
 
-#: Qualifiers stored for both bodies (the fields of :class:`Qualifiers`), with units.
+#: Qualifiers stored for both bodies (the fields of :class:`Qualifiers`): (units, long name).
 QUALIFIERS = {
-    "amplification": "1",
-    "k_out_N_per_mm": "N/mm",
-    "sensitivity_mm_per_N": "mm/N",
-    "strain_energy_mJ": "mJ",
-    "hysteresis": "1 (fraction of full scale)",
-    "quality_mm_per_N": "mm/N",
-    "range_N": "N",
+    "amplification": ("1", "amplification A: output travel / input travel"),
+    "k_out_N_per_mm": ("N/mm", "output stiffness k_out: input force / output travel"),
+    "sensitivity_mm_per_N": ("mm/N", "sensitivity: output travel / input force (1 / k_out)"),
+    "strain_energy_mJ": ("mJ", "strain energy SE at the target output travel"),
+    "hysteresis": ("1", "predicted hysteresis H, fraction of full scale (strain-energy law, eq 87)"),
+    "quality_mm_per_N": ("mm/N", "quality: sensitivity / H (thesis Table 6 SNR)"),
+    "range_N": ("N", "range: input force at the target output travel (full scale)"),
 }
-#: Ratios proposed / basis (Figure 49 and beyond): name -> qualifier.
+#: Every variable stored per body: the qualifiers, the datasheet resolution (sensor model
+#: defaults) and the stress utilisation at full scale.
+BODY = {
+    **QUALIFIERS,
+    "resolution_N": ("N", "RMS force resolution, worst over the range (datasheet, sensor model defaults)"),
+    "stress_utilisation": ("1", "largest hinge peak stress at full scale / the material's allowable stress"),
+}
+#: Variables of the basis family (the basis body with hinges 1-8 of every thickness).
+FAMILY = tuple(BODY)
+#: Ratios proposed / basis at the same phi1 (Figure 49): name -> qualifier. H is SE times a
+#: constant (the strain-energy law), so the hysteresis ratio is the strain-energy ratio and
+#: is not stored twice.
 RATIOS = {
     "ratio_amplification": "amplification",
     "ratio_k_out": "k_out_N_per_mm",
     "ratio_strain_energy": "strain_energy_mJ",
-    "ratio_hysteresis": "hysteresis",
     "ratio_quality": "quality_mm_per_N",
+}
+#: Per-cell comparison with the best basis body of the cell's own range (DESIGN section 13,
+#: :mod:`sensor.design_space.equal_range`): name -> (units, long name).
+EQUAL_RANGE = {
+    "equal_range_basis_hysteresis": ("1", "H of the basis body of the same range with the lowest H "
+                                     "(any phi1, within the allowable stress)"),
+    "equal_range_basis_resolution_N": ("N", "RMS resolution of that basis body"),
+    "equal_range_basis_phi1_deg": ("degree", "phi1 of that basis body"),
+    "equal_range_basis_hinge_mm": ("mm", "hinge 1-8 thickness of that basis body"),
+    "equal_range_ratio_hysteresis": ("1", "H / H of the best basis body of the same range"),
+    "equal_range_ratio_resolution": ("1", "resolution / resolution of the best basis body of the same range"),
 }
 #: Monte-Carlo statistics kept for these qualifiers.
 MC_QUALIFIERS = ("amplification", "sensitivity_mm_per_N", "strain_energy_mJ", "hysteresis", "quality_mm_per_N")
+MC_STATISTICS = {"mean": "mean over the cuttable draws that solve",
+                 "std": "standard deviation over the cuttable draws that solve",
+                 "tail": "worse tail over the cuttable draws that solve"}
 
 assert tuple(QUALIFIERS) == Qualifiers.names()
 
+#: The flag variables and their meanings (CF flag_values / flag_meanings).
+FLAGS = {"feasible": ("infeasible feasible", "cell passes every feasibility rule and solved"),
+         "computed": ("pending computed", "cell has been computed")}
+CELL = ("hinges", "phi1_deg", "phi2_deg")
+
+
+def mc_statistic(qualifier: str, stat: str) -> str:
+    """The dataset name of a Monte-Carlo statistic; the worse tail is the 90th percentile of
+    hysteresis and the 10th of the others."""
+    if stat == "tail":
+        stat = "p90" if qualifier == "hysteresis" else "p10"
+    return f"mc_{qualifier}_{stat}"
+
 
 def empty_dataset(spec: SweepSpec, version: str) -> xr.Dataset:
-    """A dataset with every variable present and nothing computed."""
+    """A dataset with every variable present and nothing computed (CF-1.10 attributes)."""
     H, P1, P2 = list(spec.hinge_sets), spec.phi1.values, spec.phi2.values
+    T = spec.family_thickness_mm()
     shape3, shape2 = (len(H), len(P1), len(P2)), (len(H), len(P1))
-    coords = {"hinges": H, "phi1_deg": P1, "phi2_deg": P2}
+    coords = {"hinges": ("hinges", H, {"units": "1", "long_name": "hinge set (hinges 1-8 and 9-12 thickness, 0.1 mm)"}),
+              "phi1_deg": ("phi1_deg", P1, {"units": "degree", "long_name": "phi1: side-link lean from the vertical"}),
+              "phi2_deg": ("phi2_deg", P2, {"units": "degree", "long_name": "phi2: middle-link rise above the horizontal"}),
+              "family_hinge_mm": ("family_hinge_mm", T, {"units": "mm", "long_name": "hinge 1-8 thickness of the basis family"})}
     dv = {}
-    for k, unit in QUALIFIERS.items():
-        dv[k] = (("hinges", "phi1_deg", "phi2_deg"), np.full(shape3, np.nan), {"units": unit, "body": "proposed"})
-        dv[f"basis_{k}"] = (("hinges", "phi1_deg"), np.full(shape2, np.nan), {"units": unit, "body": "basis"})
+    for k, (unit, name) in BODY.items():
+        dv[k] = (CELL, np.full(shape3, np.nan), {"units": unit, "long_name": f"proposed body: {name}"})
+        dv[f"basis_{k}"] = (("hinges", "phi1_deg"), np.full(shape2, np.nan),
+                            {"units": unit, "long_name": f"basis body of the hinge set: {name}"})
+        dv[f"family_{k}"] = (("phi1_deg", "family_hinge_mm"), np.full((len(P1), len(T)), np.nan),
+                             {"units": unit, "long_name": f"basis family body: {name}"})
     for k, q in RATIOS.items():
-        dv[k] = (("hinges", "phi1_deg", "phi2_deg"), np.full(shape3, np.nan),
-                 {"units": "1", "long_name": f"{q}: proposed / basis at the same phi1"})
-    dv["computed"] = (("hinges", "phi1_deg", "phi2_deg"), np.zeros(shape3, bool), {})
-    dv["feasible"] = (("hinges", "phi1_deg", "phi2_deg"), np.zeros(shape3, bool),
-                      {"long_name": "cell passes every feasibility rule and solved"})
-    dv["reason"] = (("hinges", "phi1_deg", "phi2_deg"), np.full(shape3, "", dtype=object),
-                    {"long_name": "why the cell is infeasible (empty if feasible)"})
-    dv["basis_reason"] = (("hinges", "phi1_deg"), np.full(shape2, "", dtype=object), {})
+        dv[k] = (CELL, np.full(shape3, np.nan), {"units": "1", "long_name": f"{q}: proposed / basis at the same phi1"})
+    for k, (unit, name) in EQUAL_RANGE.items():
+        dv[k] = (CELL, np.full(shape3, np.nan), {"units": unit, "long_name": name})
+    for k, (meanings, name) in FLAGS.items():
+        dv[k] = (CELL, np.zeros(shape3, bool), {"units": "1", "long_name": name, "flag_values": np.array([0, 1], "i1"),
+                                                "flag_meanings": meanings})
+    dv["reason"] = (CELL, np.full(shape3, "", dtype=object),
+                    {"units": "1", "long_name": "why the cell is infeasible (empty if feasible)"})
+    dv["basis_reason"] = (("hinges", "phi1_deg"), np.full(shape2, "", dtype=object),
+                          {"units": "1", "long_name": "why the basis body failed (empty if it solved)"})
     if spec.monte_carlo:
         for k in MC_QUALIFIERS:
-            for s in ("mean", "std", "p10"):
-                dv[f"mc_{k}_{s}"] = (("hinges", "phi1_deg", "phi2_deg"), np.full(shape3, np.nan),
-                                     {"units": QUALIFIERS[k], "monte_carlo": s})
-        dv["mc_yield"] = (("hinges", "phi1_deg", "phi2_deg"), np.full(shape3, np.nan),
+            for s, what in MC_STATISTICS.items():
+                name = mc_statistic(k, s)
+                dv[name] = (CELL, np.full(shape3, np.nan),
+                            {"units": BODY[k][0], "long_name": f"{BODY[k][1]}: {what} ({name.rsplit('_', 1)[1]})"})
+        dv["mc_yield"] = (CELL, np.full(shape3, np.nan),
                           {"units": "1", "long_name": "fraction of draws that can be cut "
                            "(every hinge >= min_feature_mm) and reach the target travel"})
     ds = xr.Dataset(dv, coords=coords)
-    ds["phi1_deg"].attrs["units"] = ds["phi2_deg"].attrs["units"] = "degree"
     ds.attrs.update({
+        "Conventions": "CF-1.10",
         "title": "dacm phi1/phi2 sweep of the proposed DACM against the basis body",
+        "institution": "dacm",
+        "source": f"dacm {version}: nonlinear Castigliano chain-algorithm beam model",
         "software": f"dacm {version}",
         "spec": spec.to_json(),
         "target_output_mm": spec.target_output_mm,
@@ -81,19 +131,22 @@ def empty_dataset(spec: SweepSpec, version: str) -> xr.Dataset:
 
 
 def merge_row(ds: xr.Dataset, row: dict) -> None:
-    """Write one solved row into the dataset (in place)."""
+    """Write one solved row into the dataset (in place); once every cell is computed, the
+    equal-range comparison of every cell (:func:`fill_equal_range`)."""
     h = list(ds["hinges"].values).index(row["hinges"])
     i = row["i"]
     todo = row["computed"]
-    for k in QUALIFIERS:
+    for k in BODY:
         ds[f"basis_{k}"].values[h, i] = row["basis"][k]
         ds[k].values[h, i, todo] = row["proposed"][k][todo]
+    for k, v in row.get("family", {}).items():
+        ds[f"family_{k}"].values[i] = v
     ds["basis_reason"].values[h, i] = row["basis_reason"]
     ds["reason"].values[h, i, todo] = row["reason"][todo]
     for k, q in RATIOS.items():
         ds[k].values[h, i, todo] = ds[q].values[h, i, todo] / ds[f"basis_{q}"].values[h, i]
     for k, v in row.get("mc", {}).items():
-        ds[f"mc_{k}"].values[h, i, todo] = v[todo]
+        ds[k].values[h, i, todo] = v[todo]
     ds["computed"].values[h, i, todo] = True
     ok = np.isfinite(ds["amplification"].values[h, i]) & (ds["reason"].values[h, i] == "")
     ds["feasible"].values[h, i] = ok & ds["computed"].values[h, i]
@@ -103,6 +156,8 @@ def merge_row(ds: xr.Dataset, row: dict) -> None:
             if not ds["reason"].values[h, i, j]:
                 ds["reason"].values[h, i, j] = row["basis_reason"]
         ds["feasible"].values[h, i] = False
+    if ds["computed"].values.all():
+        fill_equal_range(ds)
 
 
 def save_dataset(ds: xr.Dataset, path: Path) -> None:
@@ -112,8 +167,8 @@ def save_dataset(ds: xr.Dataset, path: Path) -> None:
     out = ds.copy()
     for k in ("reason", "basis_reason"):
         out[k] = out[k].astype(str)
-    out["computed"] = out["computed"].astype("i1")
-    out["feasible"] = out["feasible"].astype("i1")
+    for k in FLAGS:
+        out[k] = out[k].astype("i1")
     with atomic_path(path) as tmp:
         out.to_netcdf(tmp, engine="h5netcdf")
 
@@ -124,8 +179,8 @@ def load_dataset(path: Path) -> xr.Dataset:
         ds = f.load()
     for k in ("reason", "basis_reason"):
         ds[k] = ds[k].astype(object)
-    ds["computed"] = ds["computed"].astype(bool)
-    ds["feasible"] = ds["feasible"].astype(bool)
+    for k in FLAGS:
+        ds[k] = ds[k].astype(bool)
     return ds
 
 
@@ -141,13 +196,20 @@ def rows_to_do(ds: xr.Dataset) -> list[tuple[str, int, np.ndarray]]:
 
 
 def write_csv(ds: xr.Dataset, path: Path) -> Path:
-    """The tidy table: one row per (hinges, phi1, phi2) with every variable (atomically)."""
-    from geometry.atomic import atomic_path
-
-    proposed = [v for v in ds.data_vars if ds[v].dims == ("hinges", "phi1_deg", "phi2_deg")]
+    """The tidy table: one row per (hinges, phi1, phi2) with every cell and basis variable
+    (atomically); each column is headed ``name [units]``."""
+    proposed = [v for v in ds.data_vars if ds[v].dims == CELL]
     df = ds[proposed].to_dataframe().reset_index()
     basis = ds[[v for v in ds.data_vars if ds[v].dims == ("hinges", "phi1_deg")]].to_dataframe().reset_index()
     df = df.merge(basis, on=["hinges", "phi1_deg"])
+    return write_table(df, path, {k: ds[k].attrs.get("units", "1") for k in df.columns})
+
+
+def write_table(df, path: Path, units: dict[str, str]) -> Path:
+    """A table as CSV (atomically) with each column headed ``name [units]``."""
+    from geometry.atomic import atomic_path
+
+    df = df.rename(columns={k: f"{k} [{units[k]}]" for k in df.columns})
     with atomic_path(path) as tmp:
         df.to_csv(tmp, index=False, float_format="%.6g")
     return path

@@ -20,6 +20,8 @@ import signal
 import threading
 import time
 import warnings
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import xarray as xr
@@ -327,3 +329,49 @@ def _close_client(client) -> None:
     finally:
         for lg, level in zip(loggers, levels):
             lg.setLevel(level)
+
+
+@dataclass(frozen=True)
+class TaskPool:
+    """``map(fn, items) -> list`` (in order) on ``size`` parallel workers."""
+
+    map: Callable[[Callable, Iterable], list]
+    size: int
+
+
+@contextlib.contextmanager
+def task_pool(workers: int = 0, scheduler: str | None = None):
+    """Where a sweep's rows would run, for other work (the optimiser's candidates and Monte
+    Carlo draws): yields a :class:`TaskPool` on the local processes (``workers`` as for
+    :func:`run_sweep`; 1 = in this process) or on the Dask scheduler at ``scheduler``. The
+    pool is stopped when the block ends, however it ends."""
+    check_run_options(workers, scheduler)
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise SweepError("--scheduler needs the 'distributed' extra: pip install 'dacm[distributed]'") from None
+        try:
+            client = Client(scheduler, timeout=5.0)
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            raise SweepError(f"--scheduler = {scheduler!r}: cannot reach the Dask scheduler "
+                             f"({type(exc).__name__})") from None
+        try:
+            size = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
+            yield TaskPool(lambda fn, items: client.gather(client.map(fn, list(items), pure=False)), size)
+        finally:
+            _close_client(client)
+        return
+    n = local_workers(workers)
+    if n <= 1:
+        yield TaskPool(lambda fn, items: [fn(x) for x in items], 1)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("fork"),
+                               initializer=_worker_setup, initargs=(os.getpid(),))
+    try:
+        yield TaskPool(lambda fn, items: list(pool.map(fn, items)), n)
+    finally:
+        _stop_pool(pool)

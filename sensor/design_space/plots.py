@@ -1,26 +1,31 @@
-"""Figures of a phi1/phi2 sweep: the Figure 49 ratio panels and the Pareto front."""
+"""Figures of a phi1/phi2 sweep: the Figure 49 ratio panels, and hysteresis and resolution
+against range (the equal-range answer, DESIGN section 13)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import xarray as xr
+from matplotlib.colors import BoundaryNorm
+from matplotlib.figure import Figure
 
 from geometry.atomic import save_figure
+from sensor.design_space.equal_range import SUMMARY_RANGES_N, admissible, basis_at_range
 
-#: Thesis specimens marked on every panel (Table 5).
+#: Thesis specimens (Table 5), hinge set 05-03: marked on that hinge set's panels only.
 SAMPLES = {"A": (21.0, 34.0), "B": (22.0, 17.2)}
+SAMPLES_HINGES = "05-03"
 
 #: Axis labels of the ratio variables (the Monte-Carlo robust quality has no panel of its own).
+#: H is SE times the law's constant, so the strain-energy panel is also the hysteresis ratio.
 PANELS = {
     "ratio_amplification": "amplification ratio A / A_basis",
     "ratio_k_out": "output stiffness ratio k_out / k_out,basis",
-    "ratio_strain_energy": "strain energy ratio SE / SE_basis",
-    "ratio_hysteresis": "predicted hysteresis ratio H / H_basis",
+    "ratio_strain_energy": "strain energy (= hysteresis) ratio SE / SE_basis",
     "ratio_quality": "quality ratio (sensitivity/H) / basis",
+    "equal_range_ratio_hysteresis": "H / H of the best basis body of the same range",
 }
 LABELS = {**PANELS, "robust_quality_ratio": "robust quality (10th percentile) / basis quality"}
 
@@ -32,9 +37,10 @@ def _save(fig, path: Path, formats=("png", "svg")) -> list[Path]:
 
 
 def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
-    """One Figure 49 panel: filled contours of a ratio over phi1 x phi2 (phi1 across)."""
+    """One Figure 49 panel: filled contours of a ratio over phi1 x phi2 (phi1 across), one
+    colour per quantile band (a BoundaryNorm, so every band is told apart)."""
     da = ds[var].sel(hinges=hinges)
-    feas = ds["feasible"].sel(hinges=hinges).values
+    feas = admissible(ds, hinges) if var.startswith("equal_range") else ds["feasible"].sel(hinges=hinges).values
     z = np.where(feas, da.values, np.nan).T  # rows phi2, columns phi1
     x, y = ds["phi1_deg"].values, ds["phi2_deg"].values
     finite = z[np.isfinite(z)]
@@ -42,19 +48,21 @@ def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
         levels = np.unique(np.quantile(finite, np.linspace(0, 1, 13)))
         if len(levels) < 3:
             levels = np.linspace(finite.min(), finite.max(), 5)
-        cf = ax.contourf(x, y, z, levels=levels, cmap="viridis", extend="neither")
+        cf = ax.contourf(x, y, z, levels=levels, cmap="viridis", extend="neither",
+                         norm=BoundaryNorm(levels, ncolors=256))
         cs = ax.contour(x, y, z, levels=levels[1:-1:2], colors="k", linewidths=0.5)
         ax.clabel(cs, fmt="%.2f", fontsize=7)
         if finite.min() < 1 < finite.max():
             one = ax.contour(x, y, z, levels=[1.0], colors="crimson", linewidths=2.2)
             ax.clabel(one, fmt="1", fontsize=8)
-        plt.colorbar(cf, ax=ax, label=LABELS.get(var, var), shrink=0.9)
-    # infeasible cells hatched
-    mask = (~feas).T.astype(float)
-    if mask.any():
-        ax.contourf(x, y, mask, levels=[0.5, 1.5], colors="none", hatches=["////"])
-        ax.contour(x, y, mask, levels=[0.5], colors="0.4", linewidths=0.6)
-    for name, (p1, p2) in SAMPLES.items():
+        ax.figure.colorbar(cf, ax=ax, label=LABELS.get(var, var), shrink=0.9, format="%.3g")
+    # infeasible cells hatched; cells without a value (no basis body of their range) dotted
+    for mask, hatch in (((~feas).T, "////"), ((feas & ~np.isfinite(da.values)).T, "...")):
+        if mask.any():
+            m = mask.astype(float)
+            ax.contourf(x, y, m, levels=[0.5, 1.5], colors="none", hatches=[hatch])
+            ax.contour(x, y, m, levels=[0.5], colors="0.4", linewidths=0.6)
+    for name, (p1, p2) in SAMPLES.items() if hinges == SAMPLES_HINGES else ():
         ax.plot(p1, p2, "o", mfc="white", mec="k", ms=7, zorder=5)
         ax.annotate(f"sample {name}", (p1, p2), xytext=(5, 5), textcoords="offset points", fontsize=8)
     ax.set_xlabel("phi1 (deg): side-link lean from vertical")
@@ -68,7 +76,8 @@ def plot_figure49(ds: xr.Dataset, out_dir: Path) -> list[Path]:
     Figure 49 layout. PNG and SVG."""
     written = []
     hsets = [str(h) for h in ds["hinges"].values]
-    fig49, axes = plt.subplots(3, len(hsets), figsize=(5.2 * len(hsets), 13), squeeze=False)
+    fig49 = Figure(figsize=(5.2 * len(hsets), 13))
+    axes = fig49.subplots(3, len(hsets), squeeze=False)
     for r, var in enumerate(("ratio_amplification", "ratio_k_out", "ratio_strain_energy")):
         for c, h in enumerate(hsets):
             plot_ratio_panel(axes[r, c], ds, var, h)
@@ -77,13 +86,18 @@ def plot_figure49(ds: xr.Dataset, out_dir: Path) -> list[Path]:
     fig49.tight_layout()
     written += _save(fig49, out_dir / "figure49")
     for var in PANELS:
-        fig, axes = plt.subplots(1, len(hsets), figsize=(5.2 * len(hsets), 4.6), squeeze=False)
+        fig = Figure(figsize=(5.2 * len(hsets), 4.6))
+        axes = fig.subplots(1, len(hsets), squeeze=False)
         for c, h in enumerate(hsets):
             plot_ratio_panel(axes[0, c], ds, var, h)
+        if var.startswith("equal_range"):
+            fig.suptitle("hatched: infeasible or over the allowable stress; dotted: no basis body "
+                         "reaches the cell's range within the allowable stress", fontsize=9)
         fig.tight_layout()
         written += _save(fig, out_dir / var)
     if any(k.startswith("mc_") for k in ds.data_vars):
-        fig, axes = plt.subplots(1, len(hsets), figsize=(5.2 * len(hsets), 4.6), squeeze=False)
+        fig = Figure(figsize=(5.2 * len(hsets), 4.6))
+        axes = fig.subplots(1, len(hsets), squeeze=False)
         for c, h in enumerate(hsets):
             rob = ds["mc_quality_mm_per_N_p10"] / ds["basis_quality_mm_per_N"]
             plot_ratio_panel(axes[0, c], ds.assign(robust_quality_ratio=rob), "robust_quality_ratio", h)
@@ -93,37 +107,45 @@ def plot_figure49(ds: xr.Dataset, out_dir: Path) -> list[Path]:
     return written
 
 
-def pareto_front(ds: xr.Dataset, hinges: str) -> pd.DataFrame:
-    """Feasible cells not dominated in (higher sensitivity, lower predicted hysteresis)."""
-    sub = ds.sel(hinges=hinges)
-    df = sub[["sensitivity_mm_per_N", "hysteresis", "quality_mm_per_N", "amplification",
-              "k_out_N_per_mm", "strain_energy_mJ"]].to_dataframe().reset_index()
-    df = df[sub["feasible"].values.ravel()].sort_values(["hysteresis", "sensitivity_mm_per_N"],
-                                                        ascending=[True, False])
-    best = -np.inf
-    keep = []
-    for idx, s in zip(df.index, df["sensitivity_mm_per_N"]):
-        if s > best:
-            keep.append(idx)
-            best = s
-    return df.loc[keep].drop(columns=["hinges"], errors="ignore").reset_index(drop=True)
-
-
-def plot_pareto(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path) -> list[Path]:
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    for h, front in fronts.items():
-        sub = ds.sel(hinges=h)
-        feas = sub["feasible"].values
-        ax.scatter(sub["hysteresis"].values[feas], sub["sensitivity_mm_per_N"].values[feas], s=4, alpha=0.25,
-                   label=f"{h}: feasible cells")
-        ax.plot(front["hysteresis"], front["sensitivity_mm_per_N"], "-o", ms=3, label=f"{h}: Pareto front")
-        b = sub["basis_hysteresis"].values, sub["basis_sensitivity_mm_per_N"].values
-        ax.plot(b[0], b[1], "k--", lw=0.8, alpha=0.6)
-    ax.plot([], [], "k--", lw=0.8, label="basis bodies")
-    ax.set_xscale("log")  # cells near toggle (phi2 small) reach H ~ 1 and would hide the front
-    ax.set_xlabel("predicted hysteresis H (fraction of full scale, log scale)")
-    ax.set_ylabel("sensitivity (mm/N)")
-    ax.set_title("Sensitivity against predicted hysteresis")
-    ax.legend(fontsize=8)
+def plot_hysteresis_vs_range(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path) -> list[Path]:
+    """H and resolution against range (log axes): the admissible cells and the (range, H)
+    front of each hinge set, the basis family at each phi1 of the grid (thin lines; its
+    hinge thickness varied continuously) and the best basis body of each range (bold)."""
+    fig = Figure(figsize=(12.5, 5.2))
+    axes = fig.subplots(1, 2)
+    colours = dict(zip(fronts, ("tab:blue", "tab:orange", "tab:green")))
+    lo = np.nanmin(ds["family_range_N"].values)
+    hi = np.nanmax(ds["family_range_N"].values)
+    grid = np.geomspace(lo, hi, 400)
+    best, loose = basis_at_range(ds, grid), basis_at_range(ds, grid, stress=False)
+    for ax, var, label in ((axes[0], "hysteresis", "predicted hysteresis H (fraction of full scale)"),
+                           (axes[1], "resolution_N", "RMS resolution (N), worst over the range")):
+        for i in range(ds["phi1_deg"].size):
+            ok = ds["family_stress_utilisation"].values[i] <= 1.0
+            ax.plot(ds["family_range_N"].values[i][ok], ds[f"family_{var}"].values[i][ok], "-",
+                    color="0.75", lw=0.6, zorder=1)
+        ax.plot([], [], "-", color="0.75", lw=0.6, label="basis family, one line per phi1 of the grid")
+        ax.plot(grid, loose[var], "k:", lw=1.2, label="best basis body, stress limit ignored")
+        ax.plot(grid, best[var], "k-", lw=2.2, label="best basis body of each range")
+        for h, front in fronts.items():
+            ok = admissible(ds, h)
+            sub = ds.sel(hinges=h)
+            ax.scatter(sub["range_N"].values[ok], sub[var].values[ok], s=3, alpha=0.25,
+                       color=colours[h], zorder=2, label=f"DACM {h}: cells within stress")
+            ax.plot(front["range_N"], front[var], "-", color=colours[h], lw=1.6, zorder=3,
+                    label=f"DACM {h}: lowest H at each range")
+        for r in SUMMARY_RANGES_N:
+            ax.axvline(r, color="0.5", lw=0.5, ls="--", zorder=0)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xticks([0.2, 0.5, 1, 2, 5, 10, 20, 50], labels=["0.2", "0.5", "1", "2", "5", "10", "20", "50"])
+        ax.set_xlabel(f"range (N): input force at {ds.attrs['target_output_mm']:g} mm output travel")
+        ax.set_ylabel(label)
+        ax.grid(True, which="major", alpha=0.3)
+    axes[0].set_title("Hysteresis at equal range (lower is better)", fontsize=10)
+    axes[1].set_title("Resolution at equal range (lower is better)", fontsize=10)
+    axes[0].legend(fontsize=7, loc="upper left")
+    fig.suptitle("Proposed DACM against the basis body at the same force range; only bodies within "
+                 "the allowable hinge stress at full scale", fontsize=10)
     fig.tight_layout()
-    return _save(fig, out_dir / "pareto")
+    return _save(fig, out_dir / "hysteresis-vs-range")

@@ -1,5 +1,7 @@
 """One row of a sweep: the basis body at one phi1 and the proposed body at every phi2,
-solved together as a batch (one topology), with optional Monte-Carlo hinge scatter."""
+solved together as a batch (one topology), with optional Monte-Carlo hinge scatter; the
+row of the first hinge set also solves the basis family at its phi1 (the basis body with
+hinges 1-8 of every thickness of :meth:`SweepSpec.family_thickness_mm`, DESIGN section 13)."""
 
 from __future__ import annotations
 
@@ -8,11 +10,12 @@ import numpy as np
 from geometry.checks import check_design
 from geometry.params import HINGE_SETS
 from geometry.topology import build_beam_model
-from sensor.design_space.dataset import MC_QUALIFIERS, QUALIFIERS
+from sensor.design_space.dataset import BODY, FAMILY, MC_QUALIFIERS, mc_statistic
+from sensor.design_space.resolution import resolution_N
 from sensor.design_space.spec import SweepSpec
-from sensor.mechanics.hysteresis import StrainEnergyLaw
 from sensor.mechanics.qualifiers import Qualifiers, qualify
 from sensor.mechanics.solver import SolverOptions, solve_batch
+from sensor.mechanics.stress import stress_check
 
 
 def _cell_seed(seed: int, hinges: str, i: int, j: int) -> np.random.Generator:
@@ -20,10 +23,20 @@ def _cell_seed(seed: int, hinges: str, i: int, j: int) -> np.random.Generator:
     return np.random.default_rng([seed, list(HINGE_SETS).index(hinges), i, j])
 
 
-def _qualifiers(results, law: StrainEnergyLaw) -> dict[str, np.ndarray]:
-    """Qualifier arrays over a batch of results (NaN where a solve failed)."""
-    q = [qualify(r, law) if r is not None else Qualifiers.missing() for r in results]
-    return {k: np.array([getattr(x, k) for x in q], dtype=float) for k in Qualifiers.names()}
+def _evaluate(designs, spec: SweepSpec, opts: SolverOptions):
+    """Solve designs of one topology: ({variable of :data:`BODY`: array}, errors), NaN where
+    a solve failed. Beside the qualifiers: the datasheet resolution and the stress
+    utilisation (largest hinge peak stress at full scale / allowable stress)."""
+    models = [build_beam_model(d) for d in designs]
+    res, errs = solve_batch(models, target_output_mm=spec.target_output_mm, options=opts)
+    q = [qualify(r, spec.law) if r is not None else Qualifiers.missing() for r in res]
+    out = {k: np.array([getattr(x, k) for x in q], dtype=float) for k in Qualifiers.names()}
+    out["resolution_N"] = np.array([np.nan if r is None else resolution_N(r.force_N, r.output_mm, d.fiber_clearance_mm)
+                                    for d, r in zip(designs, res)])
+    out["stress_utilisation"] = np.array([np.nan if r is None else stress_check(d, m, r).utilisation
+                                          for d, m, r in zip(designs, models, res)])
+    assert set(out) == set(BODY)
+    return out, errs
 
 
 def solve_row(spec: SweepSpec, hinges: str, i: int, todo: np.ndarray | None = None) -> dict:
@@ -39,11 +52,11 @@ def solve_row(spec: SweepSpec, hinges: str, i: int, todo: np.ndarray | None = No
     basis = spec.design(hinges, phi1, None)
     fail = check_design(basis).first_failure
     if fail is None:
-        res, err = solve_batch([build_beam_model(basis)], target_output_mm=spec.target_output_mm, options=opts)
-        row["basis"] = {k: float(v[0]) for k, v in _qualifiers(res, spec.law).items()}
+        vals, err = _evaluate([basis], spec, opts)
+        row["basis"] = {k: float(v[0]) for k, v in vals.items()}
         basis_reason = "" if err[0] is None else f"basis: {err[0]}"
     else:
-        row["basis"] = {k: np.nan for k in QUALIFIERS}
+        row["basis"] = {k: np.nan for k in BODY}
         basis_reason = f"basis infeasible: {fail.rule}: {fail.message}"
     row["basis_reason"] = basis_reason
     # the proposed body at each phi2
@@ -56,20 +69,35 @@ def solve_row(spec: SweepSpec, hinges: str, i: int, todo: np.ndarray | None = No
         else:
             designs.append(d)
             cells.append(j)
-    q = {k: np.full(len(phi2s), np.nan) for k in QUALIFIERS}
+    q = {k: np.full(len(phi2s), np.nan) for k in BODY}
     if designs:
-        res, errs = solve_batch([build_beam_model(d) for d in designs],
-                                target_output_mm=spec.target_output_mm, options=opts)
-        vals = _qualifiers(res, spec.law)
+        vals, errs = _evaluate(designs, spec, opts)
         for n, j in enumerate(cells):
             if errs[n] is not None:
                 row["reason"][j] = f"solver: {errs[n]}"
-            for k in QUALIFIERS:
+            for k in BODY:
                 q[k][j] = vals[k][n]
     row["proposed"] = q
     if spec.monte_carlo:
         row["mc"] = _monte_carlo_row(spec, hinges, i, designs, cells, len(phi2s), opts)
+    if hinges == spec.hinge_sets[0]:
+        row["family"] = basis_family(spec, phi1, opts)
     return row
+
+
+def basis_family(spec: SweepSpec, phi1: float, opts: SolverOptions = SolverOptions()) -> dict[str, np.ndarray]:
+    """The basis body at ``phi1`` with hinges 1-8 of each thickness of the family grid:
+    {variable of :data:`FAMILY`: array over the thicknesses}, NaN where a body breaks a
+    feasibility rule or does not solve."""
+    ts = spec.family_thickness_mm()
+    out = {k: np.full(len(ts), np.nan) for k in FAMILY}
+    designs = [spec.family_design(phi1, t) for t in ts]
+    ok = [n for n, d in enumerate(designs) if check_design(d).feasible]
+    if ok:
+        vals, _ = _evaluate([designs[n] for n in ok], spec, opts)
+        for k in FAMILY:
+            out[k][ok] = vals[k]
+    return out
 
 
 def _monte_carlo_row(spec, hinges, i, designs, cells, n_phi2, opts) -> dict:
@@ -79,8 +107,8 @@ def _monte_carlo_row(spec, hinges, i, designs, cells, n_phi2, opts) -> dict:
     that could not be made, and a draw the solver cannot take to the target travel is one
     that would not work: both count against the cell's yield and stay out of the statistics.
     """
-    stats = {f"{k}_{s}": np.full(n_phi2, np.nan) for k in MC_QUALIFIERS for s in ("mean", "std", "p10")}
-    stats["yield"] = np.full(n_phi2, np.nan)
+    stats = {mc_statistic(k, s): np.full(n_phi2, np.nan) for k in MC_QUALIFIERS for s in ("mean", "std", "tail")}
+    stats["mc_yield"] = np.full(n_phi2, np.nan)
     for d, j in zip(designs, cells):
         rng = _cell_seed(spec.seed, hinges, i, j)
         nominal = np.array(d.hinge_thickness_mm)
@@ -89,13 +117,14 @@ def _monte_carlo_row(spec, hinges, i, designs, cells, n_phi2, opts) -> dict:
         makeable = draws[:, used].min(axis=1) >= d.min_feature_mm
         models = [build_beam_model(d.replace(hinge_thickness_mm=tuple(t))) for t in draws[makeable]]
         res, _ = solve_batch(models, target_output_mm=spec.target_output_mm, options=opts) if models else ([], [])
-        stats["yield"][j] = sum(r is not None for r in res) / spec.monte_carlo
-        vals = _qualifiers(res, spec.law)
+        stats["mc_yield"][j] = sum(r is not None for r in res) / spec.monte_carlo
+        q = [qualify(r, spec.law) for r in res if r is not None]
         for k in MC_QUALIFIERS:
-            v = vals[k][np.isfinite(vals[k])]
+            v = np.array([getattr(x, k) for x in q], dtype=float)
+            v = v[np.isfinite(v)]
             if len(v):
-                stats[f"{k}_mean"][j] = v.mean()
-                stats[f"{k}_std"][j] = v.std(ddof=1) if len(v) > 1 else 0.0
+                stats[mc_statistic(k, "mean")][j] = v.mean()
+                stats[mc_statistic(k, "std")][j] = v.std(ddof=1) if len(v) > 1 else 0.0
                 # robust value: the worse tail (10th percentile of goods, 90th of hysteresis)
-                stats[f"{k}_p10"][j] = np.percentile(v, 90 if k == "hysteresis" else 10)
+                stats[mc_statistic(k, "tail")][j] = np.percentile(v, 90 if k == "hysteresis" else 10)
     return stats

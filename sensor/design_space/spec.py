@@ -22,6 +22,12 @@ MAX_CELLS = 250_000
 MAX_SOLVES = 10_000_000
 _ANGLE = Number(0.0, 90.0, lo_open=True, hi_open=True, unit="deg")
 _GRID_N = Number(1, MAX_GRID_N, integer=True)
+#: The basis family (DESIGN section 13): hinges 1-8 of the basis body from the process'
+#: ``min_feature_mm`` up to FAMILY_SPAN times that, at FAMILY_POINTS geometric steps (range
+#: grows about as t^3, so each step is about 1.35 x in range; log-log interpolation between
+#: steps is within 0.5 % of a solve, tests/design_space/test_equal_range.py).
+FAMILY_POINTS = 16
+FAMILY_SPAN = 5.0
 #: Rules of the numeric fields of :class:`SweepSpec` (named as in the sweep TOML).
 SPEC_RULES = {"monte_carlo": Number(0, 100_000, integer=True),
               "hinge_sd_mm": Number(0.0, 1.0, unit="mm"),
@@ -82,7 +88,7 @@ class SweepSpec:
     """Everything a sweep's numbers depend on (stored with the dataset)."""
 
     hinge_sets: tuple[str, ...] = ("05-03", "03-03")
-    phi1: Grid = Grid(6.0, 31.0, 41)
+    phi1: Grid = Grid(5.0, 33.0, 41)           # to just past the side links' limit, 32.86 deg
     phi2: Grid = Grid(4.0, 56.0, 41)
     target_output_mm: float = 1.0
     base: dict = field(default_factory=dict)   # Design fields other than angles and hinges
@@ -101,7 +107,7 @@ class SweepSpec:
         for name, grid in (("phi1", self.phi1), ("phi2", self.phi2)):
             if not isinstance(grid, Grid):
                 raise SweepError(f"{name} = {grid!r}: must be a Grid (START:STOP:N)")
-            grid.validated(f"--{name}")
+            grid.validated(name)
         for name, rule in SPEC_RULES.items():  # numpy scalars become the plain numbers they hold
             object.__setattr__(self, name, rule.check(name, getattr(self, name), SweepError))
         cells = len(self.hinge_sets) * self.phi1.n * (self.phi2.n + 1)
@@ -110,7 +116,7 @@ class SweepSpec:
                              f"{self.phi2.n} cells x {max(1, self.monte_carlo)} draws: must be at most "
                              f"{MAX_CELLS} cells and {MAX_SOLVES:.0e} solves")
         if self.monte_carlo and not self.hinge_sd_mm > 0:
-            raise SweepError(f"--hinge-sd = {self.hinge_sd_mm!r}: must be > 0 mm with --monte-carlo")
+            raise SweepError(f"hinge_sd_mm = {self.hinge_sd_mm!r}: must be > 0 mm when monte_carlo > 0")
         if not isinstance(self.law, StrainEnergyLaw):
             raise SweepError(f"law = {self.law!r}: must be a StrainEnergyLaw")
         if not isinstance(self.base, dict):
@@ -120,7 +126,7 @@ class SweepSpec:
         except GeometryError as exc:
             raise SweepError(f"base design: {exc}") from None
         if not Number(0.0, size, lo_open=True).ok(self.target_output_mm):
-            raise SweepError(f"--target-output = {self.target_output_mm!r}: must be a positive number "
+            raise SweepError(f"target_output_mm = {self.target_output_mm!r}: must be a positive number "
                              f"of mm, at most the body's height {size:g} mm")
 
     def design(self, hinges: str, phi1: float, phi2: float | None) -> Design:
@@ -128,6 +134,17 @@ class SweepSpec:
         return design_from_dict({**base, "phi1_deg": float(phi1), "phi2_deg": None if phi2 is None else float(phi2),
                                  "hinge_set": hinges, "hinge_thickness_mm": hinge_set_thicknesses(hinges),
                                  "name": f"{hinges}-{phi1:g}-{phi2}"}, source="sweep design")
+
+    def family_thickness_mm(self) -> np.ndarray:
+        """Hinge thicknesses (mm) of the basis family, from the base design's min_feature_mm."""
+        t0 = self.design(self.hinge_sets[0], 20.0, None).min_feature_mm
+        return np.geomspace(t0, FAMILY_SPAN * t0, FAMILY_POINTS)
+
+    def family_design(self, phi1: float, thickness_mm: float) -> Design:
+        """The basis body at ``phi1`` with hinges 1-8 ``thickness_mm`` thick (9-12 unused)."""
+        d = self.design(self.hinge_sets[0], phi1, None)
+        return d.replace(hinge_thickness_mm=(float(thickness_mm),) * 8 + d.hinge_thickness_mm[8:],
+                         hinge_set="basis-family", name=f"basis-{phi1:g}-{thickness_mm:.4g}")
 
     def to_json(self) -> str:
         d = dataclasses.asdict(self)

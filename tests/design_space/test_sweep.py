@@ -275,9 +275,10 @@ def test_grid_entirely_outside_the_geometric_limits_is_reported(tmp_path, capsys
 def test_cli_writes_dataset_csv_and_figures(tmp_path, capsys):
     assert main(["sweep", "--phi1", "16:26:3", "--phi2", "14:38:3", "--out", str(tmp_path), "--quiet"]) == 0
     out = capsys.readouterr().out
-    assert "best quality" in out and "Pareto front" in out
+    assert "equal range" in out and " 5 N, 05-03: " in out and "more" not in out
     for name in ("sweep.nc", "sweep.csv", "figure49.png", "figure49.svg", "ratio_quality.png",
-                 "ratio_hysteresis.svg", "pareto.png", "pareto-05-03.csv", "pareto-03-03.csv"):
+                 "ratio_strain_energy.svg", "hysteresis-vs-range.png", "equal_range_ratio_hysteresis.png",
+                 "pareto-05-03.csv", "pareto-03-03.csv"):
         assert (tmp_path / name).stat().st_size > 0, name
     ds = xr.open_dataset(tmp_path / "sweep.nc", engine="h5netcdf")
     assert "dacm" in ds.attrs["software"] and ds.attrs["target_output_mm"] == 1.0

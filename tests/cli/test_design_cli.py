@@ -1,0 +1,49 @@
+"""``dacm design``: its files, --json keys, that ``dacm solve --config`` reproduces the
+design, and one-line bad input. The search is shortened here (its answer is tested in
+tests/design_space/test_optimise.py); the plumbing is what these tests check."""
+
+import functools
+import json
+
+import pytest
+
+import sensor.design_space.optimise as opt
+from sensor.cli import main
+
+
+@pytest.fixture
+def quick(monkeypatch):
+    monkeypatch.setattr(opt, "optimise", functools.partial(opt.optimise, popsize=4, maxiter=8,
+                                                            polish_evaluations=0))
+
+
+def test_design_json_files_and_solve_reproduces_it(quick, tmp_path, capsys):
+    assert main(["design", "--range", "3", "--hinge-max", "0.6", "--out", str(tmp_path), "--workers", "1",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for k in ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",
+              "strain_energy_mJ", "basis", "evaluations", "seconds"):
+        assert k in out, k
+    assert abs(out["range_N"] / 3 - 1) <= 0.01 and abs(out["basis"]["range_N"] / 3 - 1) <= 0.01
+    for name in ("design.toml", "design-datasheet.json", "design-profile.png", "basis.toml"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    assert main(["solve", "--config", str(tmp_path / "design.toml"), "--json"]) == 0
+    solved = json.loads(capsys.readouterr().out)
+    for k in ("range_N", "amplification", "k_out_N_per_mm", "strain_energy_mJ"):
+        assert solved[k] == pytest.approx(out[k], rel=1e-6), k
+    assert solved["hysteresis_predicted"] == pytest.approx(out["hysteresis"], rel=1e-6)
+    sheet = json.loads((tmp_path / "design-datasheet.json").read_text())
+    assert sheet["resolution_N"] == pytest.approx(out["resolution_N"])
+
+
+@pytest.mark.parametrize("argv,fragment", [
+    (["--range", "1000"], "reachable: about"),
+    (["--range", "-1"], "--range = -1.0"),
+    (["--range", "nan"], "--range = nan"),
+    (["--range", "3", "--hinge-min", "0.5", "--hinge-max", "0.3"], "--hinge-max = 0.3"),
+])
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, argv, fragment):
+    assert main(["design", *argv, "--out", str(tmp_path / "out"), "--workers", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("dacm design: error:") and fragment in err[0]
+    assert not (tmp_path / "out").exists()
