@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import sys
+import json
 import time
 import tomllib
 from pathlib import Path
+
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.progress import CountingBar, add_quiet_argument, shown
 
 
 def register(subparsers) -> None:
@@ -25,20 +28,21 @@ def register(subparsers) -> None:
     p.add_argument("--config", type=Path, metavar="TOML",
                    help="sweep settings: hinges, phi1, phi2, target_output_mm, monte_carlo, "
                         "hinge_sd_mm, seed, and a [design] table of other design fields")
-    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
-                   help="output folder (default ./dacm-out)")
+    add_output_arguments(p, "the dataset, tables and plots")
     p.add_argument("--workers", type=int, default=0, metavar="N",
                    help="local processes (default: one per core; 1 = serial)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the cells on this Dask distributed scheduler (e.g. tcp://host:8786)")
     p.add_argument("--resume", action="store_true",
-                   help="reuse the cells of an existing dataset in --out (same settings)")
+                   help="finish the dataset OUT/sweep.nc of an interrupted run (same settings); "
+                        "the other files are still replaced only with --force")
     p.add_argument("--monte-carlo", type=int, metavar="N",
                    help="repeat each cell N times with hinge thicknesses drawn around nominal")
     p.add_argument("--hinge-sd", type=float, metavar="MM", help="standard deviation of the hinge thickness draws")
     p.add_argument("--seed", type=int, metavar="N", help="random seed of the Monte-Carlo draws (default 0)")
     p.add_argument("--no-plots", action="store_true", help="write the dataset only")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the summary and the files as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
@@ -91,32 +95,15 @@ def spec_from_args(args: argparse.Namespace):
         raise SweepError(f"[design] table: {exc}") from None
 
 
-class _Progress:
-    """A rich progress bar: cells done, rate and time left."""
+def output_names(spec, plots: bool) -> list[str]:
+    """The files a sweep writes, in order: dataset, CSV, Pareto tables, then the plots."""
+    from sensor.design_space.plots import PANELS
 
-    def __init__(self):
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeRemainingColumn,
-        )
-        self.bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                            TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), transient=True)
-        self.t0 = time.monotonic()
-
-    def start(self, total):
-        self.task = self.bar.add_task("cells", total=total, rate="")
-        self.bar.start()
-
-    def advance(self, n):
-        done = self.bar.tasks[0].completed + n
-        rate = done / max(time.monotonic() - self.t0, 1e-9)
-        self.bar.update(self.task, advance=n, rate=f"{rate:.0f} cells/s")
-
-    def stop(self):
-        self.bar.stop()
+    names = ["sweep.nc", "sweep.csv", *(f"pareto-{h}.csv" for h in spec.hinge_sets)]
+    if plots:
+        stems = ["figure49", *PANELS, "pareto"] + (["robust_quality_ratio"] if spec.monte_carlo else [])
+        names += [f"{stem}.{fmt}" for stem in stems for fmt in ("png", "svg")]
+    return names
 
 
 def run(args: argparse.Namespace) -> int:
@@ -124,25 +111,24 @@ def run(args: argparse.Namespace) -> int:
 
     from sensor.design_space.dataset import save_dataset, write_csv
     from sensor.design_space.execution import run_sweep
+    from sensor.design_space.plots import pareto_front
     from sensor.errors import SweepError
 
     spec = spec_from_args(args)
     if args.workers < 0:
         raise SweepError(f"--workers = {args.workers}: must be >= 0 (0 = one per core)")
-    out = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    if not out.is_dir():
-        raise SweepError(f"--out = {out}: not a folder")
+    names = output_names(spec, not args.no_plots)
+    # --resume finishes sweep.nc: that file is expected; the others are still protected
+    claim(args, names[1:] if args.resume else names, hint="" if args.resume else "--resume to finish its sweep.nc")
+    out = make_out_dir(args.out)
     nc = out / "sweep.nc"
     t0 = time.monotonic()
-    show = not args.quiet and sys.stderr.isatty()
     ds, n_new = run_sweep(spec, version("dacm"), nc, resume=args.resume, workers=args.workers,
-                          scheduler=args.scheduler, progress=_Progress() if show else None)
+                          scheduler=args.scheduler, progress=CountingBar("sweep", "cells") if shown(args.quiet) else None)
     t_solve = time.monotonic() - t0
     save_dataset(ds, nc)
     written = [nc, write_csv(ds, out / "sweep.csv")]
     fronts = {}
-    from sensor.design_space.plots import pareto_front
     for h in ds["hinges"].values:
         fronts[str(h)] = pareto_front(ds, str(h))
         written.append(write_table(fronts[str(h)], out / f"pareto-{h}.csv"))
@@ -150,7 +136,8 @@ def run(args: argparse.Namespace) -> int:
         from sensor.design_space.plots import plot_figure49, plot_pareto
         written += plot_figure49(ds, out)
         written += plot_pareto(ds, fronts, out)
-    print_summary(ds, fronts, n_new, t_solve, time.monotonic() - t0, written)
+    s = summary(ds, fronts, n_new, t_solve, time.monotonic() - t0, written)
+    print(json.dumps(s, indent=1) if args.json else summary_text(s))
     return 0
 
 
@@ -162,25 +149,46 @@ def write_table(df, path: Path) -> Path:
     return path
 
 
-def print_summary(ds, fronts, n_new, t_solve, t_total, written) -> None:
-    n = int(ds["computed"].size)
-    print(f"swept {n} cells ({n_new} computed now) in {t_solve:.1f} s; total {t_total:.1f} s")
+def summary(ds, fronts, n_new, t_solve_s, t_total_s, written) -> dict:
+    """The numbers the sweep prints: cells, best cell by quality and Pareto front per hinge set."""
+    out = {"cells": int(ds["computed"].size), "computed_now": n_new, "solve_s": t_solve_s,
+           "total_s": t_total_s, "hinge_sets": {}, "files": [str(p) for p in written]}
     for h in ds["hinges"].values:
         sub = ds.sel(hinges=h)
-        feas = sub["feasible"].values
-        print(f"hinge set {h}: {int(feas.sum())} of {feas.size} cells feasible")
+        feas = sub["feasible"].values.astype(bool)
+        entry = out["hinge_sets"][str(h)] = {"cells": int(feas.size), "feasible_cells": int(feas.sum()),
+                                             "best_quality": None, "pareto_front": None}
         if not feas.any():
             continue
         q = sub["quality_mm_per_N"].values.copy()
         q[~feas] = -1
         i, j = divmod(int(q.argmax()), q.shape[1])
         cell = sub.isel(phi1_deg=i, phi2_deg=j)
-        print(f"  best quality: phi1 = {float(cell.phi1_deg):.2f}, phi2 = {float(cell.phi2_deg):.2f} deg: "
-              f"quality {float(cell.quality_mm_per_N):.2f} mm/N ({float(cell.ratio_quality):.2f} x basis), "
-              f"A = {float(cell.amplification):.2f}, sensitivity {float(cell.sensitivity_mm_per_N):.3f} mm/N, "
-              f"H = {float(cell.hysteresis):.4f}")
+        entry["best_quality"] = {k: float(cell[k]) for k in (
+            "phi1_deg", "phi2_deg", "quality_mm_per_N", "ratio_quality", "amplification",
+            "sensitivity_mm_per_N", "hysteresis")}
         front = fronts[str(h)]
-        print(f"  Pareto front (sensitivity vs hysteresis): {len(front)} cells, sensitivity "
-              f"{front['sensitivity_mm_per_N'].min():.3f}-{front['sensitivity_mm_per_N'].max():.3f} mm/N, "
-              f"H {front['hysteresis'].min():.4f}-{front['hysteresis'].max():.4f}")
-    print("wrote " + ", ".join(str(p) for p in written[:4]) + f" and {len(written) - 4} more in {written[0].parent}")
+        entry["pareto_front"] = {"cells": len(front), **{f"{k}_range": [float(front[k].min()), float(front[k].max())]
+                                                          for k in ("sensitivity_mm_per_N", "hysteresis")}}
+    return out
+
+
+def summary_text(s: dict) -> str:
+    lines = [(f"swept {s['cells']} cells ({s['computed_now']} computed now) in {s['solve_s']:.1f} s; "
+              f"total {s['total_s']:.1f} s")]
+    for h, e in s["hinge_sets"].items():
+        lines.append(f"hinge set {h}: {e['feasible_cells']} of {e['cells']} cells feasible")
+        if e["best_quality"] is None:
+            continue
+        b, f = e["best_quality"], e["pareto_front"]
+        lines.append(f"  best quality: phi1 = {b['phi1_deg']:.2f}, phi2 = {b['phi2_deg']:.2f} deg: "
+                     f"quality {b['quality_mm_per_N']:.2f} mm/N ({b['ratio_quality']:.2f} x basis), "
+                     f"A = {b['amplification']:.2f}, sensitivity {b['sensitivity_mm_per_N']:.3f} mm/N, "
+                     f"H = {b['hysteresis']:.4f}")
+        (s0, s1), (h0, h1) = f["sensitivity_mm_per_N_range"], f["hysteresis_range"]
+        lines.append(f"  Pareto front (sensitivity vs hysteresis): {f['cells']} cells, sensitivity "
+                     f"{s0:.3f}-{s1:.3f} mm/N, H {h0:.4f}-{h1:.4f}")
+    files = s["files"]
+    more = f" and {len(files) - 4} more in {Path(files[0]).parent}" if len(files) > 4 else ""
+    lines.append("wrote " + ", ".join(files[:4]) + more)
+    return "\n".join(lines)
