@@ -14,7 +14,7 @@ $(BIN)/dacm: pyproject.toml
 setup: $(BIN)/dacm
 
 run: setup
-	$(BIN)/dacm sweep
+	$(BIN)/dacm sweep --force
 
 test: setup
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2 --dist loadfile; status=$$?; \
