@@ -8,6 +8,7 @@ import json
 from geometry.params import FIELD_RULES
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
 from sensor.cli.output import add_output_arguments, claim
+from sensor.cli.progress import add_quiet_argument, busy
 
 #: Format flags: flag -> (format of geometry.export, what it is).
 FORMAT_FLAGS = {"dxf": ("dxf", "2D profile for the water-jet"), "stl": ("stl", "3D mesh"),
@@ -32,12 +33,11 @@ def register(subparsers) -> None:
                         "out and the holes in by MM/2 (also used as the design's kerf_mm in "
                         "the gap check)")
     p.add_argument("--json", action="store_true", help="print the files written as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from geometry.export import export_design  # CadQuery: load only when used
-
     check_flags(args, {"kerf": FIELD_RULES["kerf_mm"]})
     design = design_from_args(args)
     if args.kerf is not None:
@@ -45,7 +45,10 @@ def run(args: argparse.Namespace) -> int:
     formats = [fmt for flag, (fmt, _) in FORMAT_FLAGS.items() if getattr(args, flag)]
     formats = formats or [fmt for fmt, _ in FORMAT_FLAGS.values()]
     claim(args, [f"{design.name}.{fmt}" for fmt in formats])
-    written = export_design(design, args.out, formats, kerf_mm=args.kerf)
+    with busy(f"export {design.name}: {', '.join(formats)}", args.quiet):
+        from geometry.export import export_design  # CadQuery: load only when used
+
+        written = export_design(design, args.out, formats, kerf_mm=args.kerf)
     if args.json:
         print(json.dumps({"design": design.name, "kerf_mm": args.kerf,
                           "files": {fmt: str(p) for fmt, p in zip(formats, written)}}, indent=1))
