@@ -34,6 +34,14 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def unit_named(figures) -> dict:
+    """A loop's figures for JSON, the response unit (mm or V) in the key names."""
+    u = figures.unit
+    return {"kind": figures.kind, "max_force_N": figures.max_force_N, f"span_{u}": figures.span,
+            "hysteresis": figures.hysteresis, f"sensitivity_{u}_per_N": figures.sensitivity,
+            "nonlinearity_pct": figures.nonlinearity_pct}
+
+
 def run(args: argparse.Namespace) -> int:
     from geometry.params import save_design
     from sensor.errors import UsageError
@@ -51,8 +59,8 @@ def run(args: argparse.Namespace) -> int:
     loop = read_loop_csv(args.loop, kind)
     measured = loop_figures(loop)
     model = loop_figures(model_loop(design, kind, measured.max_force_N, DEFAULT_LAW))
-    out = {"design": design.name, "loop": str(args.loop), "measured": dataclasses.asdict(measured),
-           "model": dataclasses.asdict(model), "calibration": None}
+    out = {"design": design.name, "loop": str(args.loop), "measured": unit_named(measured),
+           "model": unit_named(model), "calibration": None}
     if args.calibrate:
         fit = fit_modulus(loop, design)
         law = fit_law(loop, fit.strain_energy_mJ)
