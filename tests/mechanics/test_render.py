@@ -8,6 +8,7 @@ from geometry.layout import Part, bar, make_layout, make_parts
 from geometry.params import preset
 from geometry.topology import BeamModel, build_beam_model
 from sensor.cli import main
+from sensor.errors import SensorInputError
 from sensor.mechanics.render import (
     auto_scale,
     body_mesh,
@@ -19,7 +20,6 @@ from sensor.mechanics.render import (
     rigid_outlines,
     strain_energy_density,
 )
-from sensor.errors import SensorInputError
 from sensor.mechanics.solver import solve
 
 
