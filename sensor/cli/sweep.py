@@ -97,10 +97,10 @@ def spec_from_args(args: argparse.Namespace):
 
 def output_names(spec, plots: bool) -> list[str]:
     """The files a sweep writes, in order: dataset, CSV, Pareto tables, then the plots."""
-    from sensor.design_space.plots import PANELS
-
     names = ["sweep.nc", "sweep.csv", *(f"pareto-{h}.csv" for h in spec.hinge_sets)]
     if plots:
+        from sensor.design_space.plots import PANELS  # matplotlib: only when plots are made
+
         stems = ["figure49", *PANELS, "pareto"] + (["robust_quality_ratio"] if spec.monte_carlo else [])
         names += [f"{stem}.{fmt}" for stem in stems for fmt in ("png", "svg")]
     return names
@@ -111,7 +111,6 @@ def run(args: argparse.Namespace) -> int:
 
     from sensor.design_space.dataset import save_dataset, write_csv
     from sensor.design_space.execution import run_sweep
-    from sensor.design_space.plots import pareto_front
     from sensor.errors import SweepError
 
     spec = spec_from_args(args)
@@ -128,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
     t_solve = time.monotonic() - t0
     save_dataset(ds, nc)
     written = [nc, write_csv(ds, out / "sweep.csv")]
+    from sensor.design_space.plots import pareto_front
     fronts = {}
     for h in ds["hinges"].values:
         fronts[str(h)] = pareto_front(ds, str(h))
