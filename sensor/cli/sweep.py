@@ -99,9 +99,8 @@ def output_names(spec, plots: bool) -> list[str]:
     """The files a sweep writes, in order: dataset, CSV, Pareto tables, then the plots."""
     names = ["sweep.nc", "sweep.csv", *(f"pareto-{h}.csv" for h in spec.hinge_sets)]
     if plots:
-        from sensor.design_space.plots import (
-            PANELS,  # matplotlib: only when plots are made
-        )
+        # matplotlib is imported only when plots are made
+        from sensor.design_space.plots import PANELS
 
         stems = ["figure49", *PANELS, "pareto"] + (["robust_quality_ratio"] if spec.monte_carlo else [])
         names += [f"{stem}.{fmt}" for stem in stems for fmt in ("png", "svg")]
