@@ -15,8 +15,8 @@ $(BIN)/dacm: pyproject.toml
 setup: $(BIN)/dacm
 
 run: setup
-	$(BIN)/dacm sweep
-	$(BIN)/dacm design --range 5
+	$(BIN)/dacm sweep --force
+	$(BIN)/dacm design --range 5 --force
 
 test: setup
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2 --dist loadfile; status=$$?; \

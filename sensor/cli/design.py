@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
+
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
 
 #: The files written to --out.
 FILES = ("design.toml", "design-datasheet.json", "design-profile.png", "basis.toml")
@@ -41,8 +42,7 @@ def register(subparsers) -> None:
     p.add_argument("--workers", type=int, default=0, metavar="N",
                    help="local processes (default: one per core; 1 = serial)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on this Dask distributed scheduler")
-    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
-                   help="output folder (default ./dacm-out)")
+    add_output_arguments(p, "design.toml, its datasheet and profile, basis.toml")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
 
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from geometry.params import save_design
     from sensor.design_space.execution import task_pool
     from sensor.design_space.optimise import DesignProblem, describe, optimise
-    from sensor.errors import DesignError, UsageError
+    from sensor.errors import DesignError
 
     kw = dict(range_N=args.range_N, travel_mm=args.travel, hinge_min_mm=args.hinge_min,
               hinge_max_mm=args.hinge_max, robust_sd_mm=args.robust, min_yield=args.min_yield, seed=args.seed)
@@ -62,8 +62,7 @@ def run(args: argparse.Namespace) -> int:
         basis_problem = DesignProblem(**{**kw, "robust_sd_mm": 0.0}, body="basis")
     except DesignError as exc:
         raise DesignError(_flagged(str(exc))) from None
-    if args.out.exists() and not args.out.is_dir():
-        raise UsageError(f"--out = {args.out}: not a folder")
+    claim(args, FILES)
     with task_pool(args.workers, args.scheduler) as pool:
         try:
             best = optimise(problem, pool)
@@ -78,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     basis_design = None if basis is None else rounded(basis.best.design, f"basis-{tag}")
     ours = describe(design, problem)
     theirs = None if basis is None else describe(basis_design, basis_problem)
-    args.out.mkdir(parents=True, exist_ok=True)
+    make_out_dir(args.out)
     paths = [args.out / f for f in FILES[:3 if basis is None else 4]]
     save_design(design, paths[0])
     with atomic_path(paths[1]) as tmp:

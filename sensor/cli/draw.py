@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from geometry.atomic import save_figure
 from geometry.checks import assert_feasible
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
 from sensor.errors import UsageError
 from sensor.validation import Number
 
@@ -20,10 +20,12 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "draw", help="picture of a design's profile (PNG/SVG)",
         description="Draw the profile of one design like thesis Figure 48: hinge numbers, "
-                    "input and output ports, phi1/phi2 and the footprint w x h.")
+                    "input and output ports, phi1/phi2 and the footprint w x h. Writes "
+                    "OUT/<name>-profile.png (or .svg with --format svg).")
     add_design_arguments(p)
-    p.add_argument("--out", type=Path, required=True, metavar="FILE",
-                   help="output picture, .png or .svg")
+    add_output_arguments(p, "the picture <name>-profile.png|svg")
+    p.add_argument("--format", default="png", metavar="FMT",
+                   help=f"{' | '.join(IMAGE_FORMATS)} (default png)")
     p.add_argument("--dpi", type=float, default=200.0, help="resolution of a PNG (default 200)")
     p.set_defaults(func=run)
 
@@ -31,12 +33,14 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from geometry.drawing import profile_figure
 
-    fmt = args.out.suffix.lower().lstrip(".")
-    if fmt not in IMAGE_FORMATS:
-        raise UsageError(f"--out = {str(args.out)!r}: must end in .png or .svg")
+    if args.format not in IMAGE_FORMATS:
+        raise UsageError(f"--format = {args.format!r}: must be one of {', '.join(IMAGE_FORMATS)}")
     check_flags(args, {"dpi": DPI_RULE})
     design = design_from_args(args)
+    [path] = claim(args, [f"{design.name}-profile.{args.format}"])
     assert_feasible(design)
-    save_figure(profile_figure(design), args.out, dpi=args.dpi)
-    print(f"wrote {args.out}")
+    fig = profile_figure(design)
+    make_out_dir(args.out)
+    save_figure(fig, path, dpi=args.dpi)
+    print(f"wrote {path}")
     return 0

@@ -3,10 +3,17 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
+import json
 
 from geometry.params import FIELD_RULES
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
+from sensor.cli.output import add_output_arguments, claim
+from sensor.cli.progress import add_quiet_argument, busy
+
+#: Format flags: flag -> (format of geometry.export, what it is).
+FORMAT_FLAGS = {"dxf": ("dxf", "2D profile for the water-jet"), "stl": ("stl", "3D mesh"),
+                "step": ("step", "3D solid"),
+                "beam_model": ("json", "beam model for the solver, <name>.json (dacm solve --model)")}
 
 
 def register(subparsers) -> None:
@@ -18,26 +25,34 @@ def register(subparsers) -> None:
                     "format flag all four are written. The design is checked for feasibility "
                     "first; nothing is written if any check fails.")
     add_design_arguments(p)
-    p.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
-                   help="output folder, created if missing (default: the current folder)")
-    for fmt, what in (("dxf", "2D profile for the water-jet"), ("stl", "3D mesh"),
-                      ("step", "3D solid"), ("json", "beam model for the solver")):
-        p.add_argument(f"--{fmt}", action="store_true", help=f"write the {what}")
+    add_output_arguments(p, "the files")
+    for flag, (_, what) in FORMAT_FLAGS.items():
+        p.add_argument(f"--{flag.replace('_', '-')}", action="store_true", help=f"write the {what}")
     p.add_argument("--kerf", type=float, metavar="MM",
                    help="cutting kerf: the DXF holds the jet's centre path, the outline moved "
                         "out and the holes in by MM/2 (also used as the design's kerf_mm in "
                         "the gap check)")
+    p.add_argument("--json", action="store_true", help="print the files written as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from geometry.export import FORMATS, export_design  # CadQuery: load only when used
-
     check_flags(args, {"kerf": FIELD_RULES["kerf_mm"]})
     design = design_from_args(args)
     if args.kerf is not None:
         design = design.replace(kerf_mm=args.kerf)
-    formats = [f for f in FORMATS if getattr(args, f)] or list(FORMATS)
-    for path in export_design(design, args.out, formats, kerf_mm=args.kerf):
+    formats = [fmt for flag, (fmt, _) in FORMAT_FLAGS.items() if getattr(args, flag)]
+    formats = formats or [fmt for fmt, _ in FORMAT_FLAGS.values()]
+    claim(args, [f"{design.name}.{fmt}" for fmt in formats])
+    with busy(f"export {design.name}: {', '.join(formats)}", args.quiet):
+        from geometry.export import export_design  # CadQuery: load only when used
+
+        written = export_design(design, args.out, formats, kerf_mm=args.kerf)
+    if args.json:
+        print(json.dumps({"design": design.name, "kerf_mm": args.kerf,
+                          "files": {fmt: str(p) for fmt, p in zip(formats, written)}}, indent=1))
+        return 0
+    for path in written:
         print(f"wrote {path}")
     return 0

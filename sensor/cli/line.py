@@ -9,8 +9,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
-from pathlib import Path
 
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
 from sensor.errors import SensorInputError
 from sensor.pneumatic.lines import LINE_MODELS
 
@@ -40,8 +40,7 @@ def register(subparsers) -> None:
                    help="highest frequency, Hz (default c / L); the grid starts at fmax / 100")
     p.add_argument("--points", type=int, default=400, metavar="N",
                    help="log-spaced frequencies (default 400)")
-    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
-                   help="folder for the plots (default ./dacm-out; created if missing)")
+    add_output_arguments(p, "the plots")
     p.add_argument("--no-plots", action="store_true", help="do not write the plots")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
@@ -88,14 +87,13 @@ def run(args: argparse.Namespace) -> int:
     from sensor.pneumatic.line_response import analyse
 
     case = case_from_args(args)
+    files = [] if args.no_plots else claim(args, ["line-frequency-response.png", "line-step.png"])
     result = analyse(case)
-    files = []
     if not args.no_plots:
         from geometry.atomic import save_figure
         from sensor.pneumatic.line_plots import frequency_figure, step_figure
 
-        args.out.mkdir(parents=True, exist_ok=True)
-        files = [args.out / "line-frequency-response.png", args.out / "line-step.png"]
+        make_out_dir(args.out)
         save_figure(frequency_figure(result), files[0], dpi=100)
         save_figure(step_figure(result), files[1], dpi=100)
     result["files"] = [str(p) for p in files]

@@ -9,6 +9,7 @@ import sys
 import warnings
 from pathlib import Path
 
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
 from sensor.errors import SensorInputError
 
 STUDIES = ("observer", "controllers", "sensor")
@@ -48,8 +49,7 @@ def register(subparsers) -> None:
     p.add_argument("--duration", type=float, default=None, metavar="S",
                    help="simulated time, s (default 30 s or 25 periods, whichever is longer: long enough to settle)")
     p.add_argument("--study", default=None, metavar="NAME", help="observer | controllers | sensor: run a whole study")
-    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
-                   help="folder for plots and tables (default ./dacm-out; created if missing)")
+    add_output_arguments(p, "plots and tables")
     p.add_argument("--no-plots", action="store_true", help="do not write plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
@@ -96,7 +96,10 @@ def run(args) -> int:
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number (s)")
     if not args.no_plots or args.study:
-        args.out.mkdir(parents=True, exist_ok=True)
+        names = ([f"loop-{args.study}.md", *(p.name for p in args.out.glob(f"loop-{args.study}*.png"))]
+                 if args.study else ["loop.png"])
+        claim(args, names)
+        make_out_dir(args.out)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CapacityWarning)
         result = _run_study(args) if args.study else _run_one(args)

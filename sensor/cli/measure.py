@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
 
 COLUMNS = ("force,displacement", "force,volts")
 
@@ -28,10 +29,17 @@ def register(subparsers) -> None:
                    help=f"what the two columns hold: {' | '.join(COLUMNS)} (default {COLUMNS[0]})")
     p.add_argument("--calibrate", action="store_true",
                    help="fit E and the strain-energy law; write OUT/<name>-calibrated.toml")
-    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
-                   help="folder for the calibrated design (default ./dacm-out)")
+    add_output_arguments(p, "the calibrated design <name>-calibrated.toml")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
+
+
+def unit_named(figures) -> dict:
+    """A loop's figures for JSON, the response unit (mm or V) in the key names."""
+    u = figures.unit
+    return {"kind": figures.kind, "max_force_N": figures.max_force_N, f"span_{u}": figures.span,
+            "hysteresis": figures.hysteresis, f"sensitivity_{u}_per_N": figures.sensitivity,
+            "nonlinearity_pct": figures.nonlinearity_pct}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -43,22 +51,22 @@ def run(args: argparse.Namespace) -> int:
     if args.columns not in COLUMNS:
         raise UsageError(f"--columns = {args.columns!r}: must be one of {', '.join(COLUMNS)}")
     kind = args.columns.split(",")[1]
+    if args.calibrate and kind != "displacement":
+        raise UsageError("--calibrate needs --columns force,displacement (volts also depend "
+                         "on the optics)")
     design = design_from_args(args)
+    path = claim(args, [f"{design.name}-calibrated.toml"])[0] if args.calibrate else None
     loop = read_loop_csv(args.loop, kind)
     measured = loop_figures(loop)
     model = loop_figures(model_loop(design, kind, measured.max_force_N, DEFAULT_LAW))
-    out = {"design": design.name, "loop": str(args.loop), "measured": dataclasses.asdict(measured),
-           "model": dataclasses.asdict(model), "calibration": None}
+    out = {"design": design.name, "loop": str(args.loop), "measured": unit_named(measured),
+           "model": unit_named(model), "calibration": None}
     if args.calibrate:
-        if kind != "displacement":
-            raise UsageError("--calibrate needs --columns force,displacement (volts also depend "
-                             "on the optics)")
         fit = fit_modulus(loop, design)
         law = fit_law(loop, fit.strain_energy_mJ)
         calibrated = design.replace(material=dataclasses.replace(design.material, E_MPa=fit.E_MPa),
                                     name=f"{design.name}-calibrated")
-        args.out.mkdir(parents=True, exist_ok=True)
-        path = args.out / f"{calibrated.name}.toml"
+        make_out_dir(args.out)
         save_design(calibrated, path)
         out["calibration"] = {**dataclasses.asdict(fit), "h_per_mJ": law.h_per_mJ,
                               "h_per_mJ_default": DEFAULT_LAW.h_per_mJ, "file": str(path)}

@@ -4,8 +4,8 @@ strain energy density (pyvista, off-screen; works without a display)."""
 from __future__ import annotations
 
 import argparse
+import json
 import re
-from pathlib import Path
 
 from sensor.cli.design_args import (
     add_design_arguments,
@@ -13,9 +13,10 @@ from sensor.cli.design_args import (
     design_from_args,
     travel_rule,
 )
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
 
-DEFAULT_OUT_DIR = Path("dacm-out")
 DEFAULT_WINDOW = (1600, 1200)
 #: Largest picture side (px) accepted by --window-size.
 MAX_WINDOW_PX = 8000
@@ -34,12 +35,13 @@ def register(subparsers) -> None:
                    help="solve until the output port has travelled MM (default 1)")
     p.add_argument("--scale", type=float, metavar="N",
                    help="displacement scale factor (default: automatic, so the largest "
-                        "displacement shows as 8%% of the body size, rounded to 1, 2, 5 x 10^k)")
-    p.add_argument("--out", type=Path, metavar="FILE.png",
-                   help="output picture (default dacm-out/<name>-render.png; the folder is "
-                        "created if missing)")
+                        "displacement shows as 8%% of the body size, rounded down to 1, 2, "
+                        "5 x 10^k, and lower while rigid parts would overlap; never below 1)")
+    add_output_arguments(p, "the picture <name>-render.png")
     p.add_argument("--window-size", metavar="WxH", default=f"{DEFAULT_WINDOW[0]}x{DEFAULT_WINDOW[1]}",
                    help="picture size in pixels (default %(default)s)")
+    p.add_argument("--json", action="store_true", help="print the solve and the file as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
@@ -58,29 +60,40 @@ def run(args: argparse.Namespace) -> int:
     from geometry.checks import assert_feasible
     from geometry.layout import make_layout, make_parts
     from geometry.topology import build_beam_model
-    from sensor.errors import UsageError
     from sensor.mechanics.render import deformed_body, render_png
     from sensor.mechanics.solver import solve
 
     check_flags(args, {"scale": Number(0.0, 1e6, lo_open=True)})
-    if args.out is not None and args.out.suffix.lower() != ".png":
-        raise UsageError(f"--out = {str(args.out)!r}: must end in .png")
     window = parse_window_size(args.window_size)
     design = design_from_args(args)
     check_flags(args, {"target_output": travel_rule(design.height_mm)})
+    [out] = claim(args, [f"{design.name}-render.png"])
     assert_feasible(design)
-    out = args.out or DEFAULT_OUT_DIR / f"{design.name}-render.png"
 
-    model = build_beam_model(design)
-    result = solve(model, target_output_mm=args.target_output)
-    require_finite(f"solve of {design.name}", {k: getattr(result, k) for k in (
-        "output_travel_mm", "input_force_N", "amplification", "strain_energy_mJ")})
-    body = deformed_body(design, model, result, make_parts(make_layout(design)), args.scale)
-    title = (f"{design.name}: output travel {result.output_travel_mm:.2f} mm "
-             f"at input force {result.input_force_N:.2f} N")
-    subtitle = (f"displacement scale × {body.scale:g}   (A = {result.amplification:.2f}, "
-                f"SE = {result.strain_energy_mJ:.3g} mJ; grey: undeformed)")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    render_png(body, out, title, subtitle, window)
+    with busy(f"render {design.name}", args.quiet) as step:
+        step("solving")
+        model = build_beam_model(design)
+        result = solve(model, target_output_mm=args.target_output)
+        numbers = {k: getattr(result, k) for k in (
+            "output_travel_mm", "input_force_N", "amplification", "strain_energy_mJ")}
+        require_finite(f"solve of {design.name}", numbers)
+        body = deformed_body(design, model, result, make_parts(make_layout(design)), args.scale)
+        step("drawing")
+        title, subtitle = _titles(design, result, body)
+        make_out_dir(args.out)
+        render_png(body, out, title, subtitle, window)
+    if args.json:
+        print(json.dumps({"design": design.name, **numbers, "displacement_scale": body.scale,
+                          "file": str(out)}, indent=1))
+        return 0
     print(f"wrote {out}")
     return 0
+
+
+def _titles(design, result, body) -> tuple[str, str]:
+    title = (f"{design.name}: output travel {result.output_travel_mm:.2f} mm "
+             f"at input force {result.input_force_N:.2f} N")
+    scale = "displacements at true scale" if body.scale == 1 else f"displacements magnified × {body.scale:g}"
+    subtitle = (f"{scale}   (A = {result.amplification:.2f}, "
+                f"SE = {result.strain_energy_mJ:.3g} mJ; grey: undeformed)")
+    return title, subtitle

@@ -8,11 +8,10 @@ import json
 import math
 import shlex
 import sys
-from pathlib import Path
 
 from sensor.cli.design_args import add_design_arguments, design_from_args
-
-DEFAULT_OUT_DIR = Path("dacm-out")
+from sensor.cli.output import add_output_arguments, claim
+from sensor.cli.progress import add_quiet_argument, busy
 
 
 def register(subparsers) -> None:
@@ -29,11 +28,10 @@ def register(subparsers) -> None:
                         "mm (default 1)")
     p.add_argument("--no-verify", action="store_true",
                    help="skip the continuum verification (it takes about 20 s)")
-    p.add_argument("--out", type=Path, default=DEFAULT_OUT_DIR, metavar="DIR",
-                   help="output folder, created if missing (default ./dacm-out)")
-    p.add_argument("--force", action="store_true", help="replace files that exist")
+    add_output_arguments(p, "the report and its files")
     p.add_argument("--json", action="store_true",
                    help="print the report's numbers and files as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
@@ -44,13 +42,12 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.target_output) and args.target_output > 0):
         raise UsageError(f"--target-output = {args.target_output:g}: must be a positive number of mm")
     design = design_from_args(args)
-    existing = [p for p in output_paths(design, args.out) if p.exists()]
-    if existing and not args.force:
-        raise UsageError(f"{existing[0]} exists ({len(existing)} of the report's files do): "
-                         "use --force to replace them, or another --out")
+    claim(args, [p.name for p in output_paths(design, args.out)])
     command = shlex.join(["dacm", *sys.argv[1:]]) if sys.argv[1:2] == ["report"] else ""
-    report = write_design_report(design, args.out, target_output_mm=args.target_output,
-                                 verify=not args.no_verify, command=command, force=args.force)
+    with busy(f"report {design.name}" + ("" if args.no_verify else " (with the continuum "
+                                         "verification, about 20 s)"), args.quiet):
+        report = write_design_report(design, args.out, target_output_mm=args.target_output,
+                                     verify=not args.no_verify, command=command, force=args.force)
     if args.json:
         print(json.dumps(report.summary, indent=1))
         return 0

@@ -6,9 +6,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-from pathlib import Path
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
 
 #: Rules of the numeric flags.
@@ -50,10 +51,10 @@ def register(subparsers) -> None:
     p.add_argument("--tolerance", type=float, default=1.0, metavar="PCT",
                    help="nonlinearity tolerance of the working range shaded on the intensity "
                         "plot, %% FS (default 1)")
-    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
-                   help="folder for the plots (default ./dacm-out; created if missing)")
+    add_output_arguments(p, "the plots")
     p.add_argument("--no-plots", action="store_true", help="do not write the plots")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
@@ -70,26 +71,30 @@ def run(args: argparse.Namespace) -> int:
     for v in args.adc_range:
         ADC_VOLTS.check("--adc-range", v, UsageError)
     design = design_from_args(args)
-    assert_feasible(design)
     if args.calibration not in CALIBRATIONS:
         raise UsageError(f"--calibration = {args.calibration!r}: must be one of "
                              f"{', '.join(CALIBRATIONS)}")
+    files = [] if args.no_plots else claim(
+        args, [f"{design.name}-intensity.png", f"{design.name}-calibration.png"])
+    assert_feasible(design)
     optics = OpticsSetup() if args.na is None else OpticsSetup(numerical_aperture=args.na)
     readout = Readout(sample_rate_Hz=args.sample_rate, adc_bits=args.adc_bits,
                       adc_min_V=args.adc_range[0], adc_max_V=args.adc_range[1],
                       mode=args.readout, model=args.optics_model)
-    sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
-                          calibration=args.calibration)
-    ds = datasheet(sensor, material=design.material.name)
-    cross = cross_axis(design, sensor.input_travel_mm)
-    values = {**dataclasses.asdict(ds), **{f"cross_axis {k}": v for k, v in dataclasses.asdict(cross).items()}}
-    require_finite(f"datasheet of {design.name}", values)
-    files = []
-    if not args.no_plots:
-        args.out.mkdir(parents=True, exist_ok=True)
-        files = [args.out / f"{design.name}-intensity.png", args.out / f"{design.name}-calibration.png"]
-        save_figure(intensity_figure(sensor, ds, args.tolerance), files[0])
-        save_figure(calibration_figure(sensor, ds), files[1])
+    with busy(f"sensor {design.name}", args.quiet) as step:
+        step("solving and calibrating")
+        sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
+                              calibration=args.calibration)
+        ds = datasheet(sensor, material=design.material.name)
+        step("cross-axis")
+        cross = cross_axis(design, sensor.input_travel_mm)
+        values = {**dataclasses.asdict(ds), **{f"cross_axis {k}": v for k, v in dataclasses.asdict(cross).items()}}
+        require_finite(f"datasheet of {design.name}", values)
+        if files:
+            step("plots")
+            make_out_dir(args.out)
+            save_figure(intensity_figure(sensor, ds, args.tolerance), files[0])
+            save_figure(calibration_figure(sensor, ds), files[1])
     if args.json:
         print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
                           "files": [str(f) for f in files]}, indent=1))

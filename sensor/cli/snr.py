@@ -30,6 +30,7 @@ from mri.snr import (
     difference_percent,
     measure_pair,
 )
+from sensor.cli.output import refuse_existing
 from sensor.errors import UsageError
 
 _ROI_HELP = (
@@ -57,6 +58,7 @@ def register(subparsers) -> None:
     parser.add_argument("--roi", action="append", default=[], metavar="ROI", help=_ROI_HELP)
     parser.add_argument("--json", action="store_true", help="print the results as JSON")
     parser.add_argument("--csv", metavar="PATH", help="write per-slice, per-ROI results as CSV")
+    parser.add_argument("--force", action="store_true", help="replace the --csv/--figure files if they exist")
     parser.add_argument(
         "--figure", metavar="PNG", help="write a, b and a - b side by side with the ROIs drawn"
     )
@@ -261,6 +263,7 @@ def _check_mode(args) -> None:
 
 def run(args) -> int:
     _check_mode(args)
+    refuse_existing([Path(p) for p in (args.csv, args.figure) if p], args.force)
     methods = (args.method,) if args.method else METHODS
     if args.reference:
         return _run_conditions(args, methods)

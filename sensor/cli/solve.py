@@ -28,7 +28,7 @@ def register(subparsers) -> None:
                     "hysteresis (strain-energy law calibrated on the basis specimen) and quality.")
     add_design_arguments(p)
     p.add_argument("--model", type=Path, metavar="JSON",
-                   help="solve a beam model written by `dacm export --json` (or any model of "
+                   help="solve a beam model written by `dacm export --beam-model` (or any model of "
                         "that schema) instead of a design")
     p.add_argument("--target-output", type=float, metavar="MM",
                    help="stop when the output port has travelled MM (default 1)")

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import sys
+import json
 import time
 import tomllib
 from pathlib import Path
+
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.progress import CountingBar, add_quiet_argument, shown
 
 
 def register(subparsers) -> None:
@@ -26,20 +29,21 @@ def register(subparsers) -> None:
     p.add_argument("--config", type=Path, metavar="TOML",
                    help="sweep settings: hinges, phi1, phi2, target_output_mm, monte_carlo, "
                         "hinge_sd_mm, seed, and a [design] table of other design fields")
-    p.add_argument("--out", type=Path, default=Path("dacm-out"), metavar="DIR",
-                   help="output folder (default ./dacm-out)")
+    add_output_arguments(p, "the dataset, tables and plots")
     p.add_argument("--workers", type=int, default=0, metavar="N",
                    help="local processes (default: one per core; 1 = serial)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the cells on this Dask distributed scheduler (e.g. tcp://host:8786)")
     p.add_argument("--resume", action="store_true",
-                   help="reuse the cells of an existing dataset in --out (same settings)")
+                   help="finish the dataset OUT/sweep.nc of an interrupted run (same settings); "
+                        "the other files are still replaced only with --force")
     p.add_argument("--monte-carlo", type=int, metavar="N",
                    help="repeat each cell N times with hinge thicknesses drawn around nominal")
     p.add_argument("--hinge-sd", type=float, metavar="MM", help="standard deviation of the hinge thickness draws")
     p.add_argument("--seed", type=int, metavar="N", help="random seed of the Monte-Carlo draws (default 0)")
     p.add_argument("--no-plots", action="store_true", help="write the dataset only")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the summary and the files as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
@@ -92,32 +96,16 @@ def spec_from_args(args: argparse.Namespace):
         raise SweepError(f"[design] table: {exc}") from None
 
 
-class _Progress:
-    """A rich progress bar: cells done, rate and time left."""
+def output_names(spec, plots: bool) -> list[str]:
+    """The files a sweep writes, in order: dataset, CSV, Pareto tables, then the plots."""
+    names = ["sweep.nc", "sweep.csv", *(f"pareto-{h}.csv" for h in spec.hinge_sets)]
+    if plots:
+        # matplotlib is imported only when plots are made
+        from sensor.design_space.plots import PANELS
 
-    def __init__(self):
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeRemainingColumn,
-        )
-        self.bar = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                            TextColumn("{task.fields[rate]}"), TimeRemainingColumn(), transient=True)
-        self.t0 = time.monotonic()
-
-    def start(self, total):
-        self.task = self.bar.add_task("cells", total=total, rate="")
-        self.bar.start()
-
-    def advance(self, n):
-        done = self.bar.tasks[0].completed + n
-        rate = done / max(time.monotonic() - self.t0, 1e-9)
-        self.bar.update(self.task, advance=n, rate=f"{rate:.0f} cells/s")
-
-    def stop(self):
-        self.bar.stop()
+        stems = ["figure49", *PANELS, "hysteresis-vs-range"] + (["robust_quality_ratio"] if spec.monte_carlo else [])
+        names += [f"{stem}.{fmt}" for stem in stems for fmt in ("png", "svg")]
+    return names
 
 
 def run(args: argparse.Namespace) -> int:
@@ -130,72 +118,32 @@ def run(args: argparse.Namespace) -> int:
     spec = spec_from_args(args)
     if args.workers < 0:
         raise SweepError(f"--workers = {args.workers}: must be >= 0 (0 = one per core)")
-    out = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    if not out.is_dir():
-        raise SweepError(f"--out = {out}: not a folder")
+    names = output_names(spec, not args.no_plots)
+    # --resume finishes sweep.nc: that file is expected; the others are still protected
+    claim(args, names[1:] if args.resume else names, hint="" if args.resume else "--resume to finish its sweep.nc")
+    out = make_out_dir(args.out)
     nc = out / "sweep.nc"
     t0 = time.monotonic()
-    show = not args.quiet and sys.stderr.isatty()
     ds, n_new = run_sweep(spec, version("dacm"), nc, resume=args.resume, workers=args.workers,
-                          scheduler=args.scheduler, progress=_Progress() if show else None)
+                          scheduler=args.scheduler, progress=CountingBar("sweep", "cells") if shown(args.quiet) else None)
     t_solve = time.monotonic() - t0
     save_dataset(ds, nc)
     written = [nc, write_csv(ds, out / "sweep.csv")]
-    fronts = {}
     from sensor.design_space.dataset import write_table
     from sensor.design_space.equal_range import pareto_front
+
+    fronts = {}
     for h in ds["hinges"].values:
         fronts[str(h)] = pareto_front(ds, str(h))
         units = {k: ds[k].attrs["units"] for k in fronts[str(h)].columns}
         written.append(write_table(fronts[str(h)], out / f"pareto-{h}.csv", units))
     if not args.no_plots:
         from sensor.design_space.plots import plot_figure49, plot_hysteresis_vs_range
+
         written += plot_figure49(ds, out)
         written += plot_hysteresis_vs_range(ds, fronts, out)
-    print_summary(ds, n_new, t_solve, time.monotonic() - t0, written)
+    from sensor.design_space.summary import summary, summary_text
+
+    s = summary(ds, n_new, t_solve, time.monotonic() - t0, written)
+    print(json.dumps(s, indent=1) if args.json else summary_text(s))
     return 0
-
-
-def print_summary(ds, n_new, t_solve, t_total, written) -> None:
-    from sensor.design_space.equal_range import (
-        SAME_RANGE,
-        SUMMARY_RANGES_N,
-        admissible,
-        answer_at,
-    )
-
-    n = int(ds["computed"].size)
-    print(f"swept {n} cells ({n_new} computed now) in {t_solve:.1f} s; total {t_total:.1f} s")
-    for h in ds["hinges"].values:
-        feas, ok = ds["feasible"].sel(hinges=h).values, admissible(ds, str(h))
-        print(f"hinge set {h}: {int(feas.sum())} of {feas.size} cells feasible, {int(ok.sum())} of them "
-              "within the allowable hinge stress at full scale")
-    print(f"equal range: the DACM cell with the lowest H within {100 * SAME_RANGE:g} % of each range, "
-          "against the basis body of that range with the lowest H (any phi1, hinges 1-8 of any thickness)")
-    for r in SUMMARY_RANGES_N:
-        for h in ds["hinges"].values:
-            print("  " + _answer_line(answer_at(ds, str(h), r)))
-    print(f"wrote {', '.join(str(p.name) for p in written)} in {written[0].parent}")
-
-
-def _answer_line(a) -> str:
-    """One line of the equal-range summary."""
-    head = f"{a.range_N:>4g} N, {a.hinges}: "
-    if a.cell is None:
-        return head + "no cell within the allowable stress reaches this range"
-    c, b = a.cell, a.basis
-    text = (head + f"DACM phi1 = {c['phi1_deg']:.2f}, phi2 = {c['phi2_deg']:.2f} deg, range {c['range_N']:.3g} N, "
-            f"A = {c['amplification']:.2f}, H = {c['hysteresis']:.4f}, resolution {1e3 * c['resolution_N']:.3f} mN; ")
-    if b["hysteresis"] == b["hysteresis"]:
-        text += (f"basis phi1 = {b['phi1_deg']:.1f} deg, hinges {b['hinge_mm']:.3f} mm: H = {b['hysteresis']:.4f}, "
-                 f"resolution {1e3 * b['resolution_N']:.3f} mN; H ratio {c['hysteresis'] / b['hysteresis']:.3f} "
-                 f"(1/A = {1 / c['amplification']:.3f}), "
-                 f"resolution ratio {c['resolution_N'] / b['resolution_N']:.3f}")
-    else:
-        loose = a.basis_any_stress
-        text += "no basis body reaches it within the allowable stress" + (
-            f" (best beyond it: H = {loose['hysteresis']:.4f} at {loose['stress_utilisation']:.2f} x the "
-            f"allowable stress; H ratio {c['hysteresis'] / loose['hysteresis']:.3f})"
-            if loose["hysteresis"] == loose["hysteresis"] else "")
-    return text + (f" [edge: {a.edge}]" if a.edge else "")

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.progress import add_quiet_argument, busy
 
 MESHES = ("coarse", "default", "fine")
 
@@ -32,9 +33,10 @@ def register(subparsers) -> None:
     p.add_argument("--kerf", type=float, default=0.0, metavar="MM",
                    help="model the cut part: re-entrant corners rounded by a jet of this width "
                         "(default 0: the drawn profile, sharp corners)")
-    p.add_argument("--out", type=Path, metavar="DIR",
-                   help="write the stress-field picture DIR/<design>-verify.png")
+    add_output_arguments(p, "the stress-field picture <name>-verify.png")
+    p.add_argument("--no-plots", action="store_true", help="do not write the picture")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
+    add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
@@ -52,14 +54,15 @@ def run(args: argparse.Namespace) -> int:
     if not args.kerf >= 0:
         raise UsageError(f"--kerf = {args.kerf!r}: must be zero or a positive number (mm)")
     design = design_from_args(args)
+    paths = [] if args.no_plots else claim(args, [f"{design.name}-verify.png"])
     assert_feasible(design)
-    v = verify_design(design, mesh=args.mesh, plane_strain=args.plane_strain,
-                      nonlinear=args.nonlinear, target_output_mm=args.target_output,
-                      kerf_mm=args.kerf)
+    with busy(f"verify {design.name}: continuum FE at three meshes", args.quiet):
+        v = verify_design(design, mesh=args.mesh, plane_strain=args.plane_strain,
+                          nonlinear=args.nonlinear, target_output_mm=args.target_output,
+                          kerf_mm=args.kerf)
     out = verification_to_dict(v)
-    if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
-        path = args.out / f"{design.name}-verify.png"
+    if paths:
+        path = make_out_dir(args.out) / paths[0].name
         kind = ("plane strain" if args.plane_strain else "plane stress") + (", nonlinear" if args.nonlinear else "")
         title = (f"{design.name}: continuum FE, {kind}, {args.target_output:g} mm output\n"
                  f"A = {v.fe_summary['amplification']:.3f}, k_out = {v.fe_summary['k_out_N_per_mm']:.3f} N/mm;"

@@ -18,7 +18,9 @@ layout (:func:`geometry.layout.make_parts`, the parts the CAD profile is the uni
   from body to hinge to link.
 
 The picture shows the field magnified by a displacement scale factor (stated in it):
-x = X + scale u(X). The strain energy density (mJ/mm^3) of a member is U / (L0 t b), with U
+x = X + scale u(X). A magnification never draws one rigid part through another (the
+platform through the fiber post, say): the automatic scale steps down until none that are
+apart at rest overlap, and an explicit one that would is refused. The strain energy density (mJ/mm^3) of a member is U / (L0 t b), with U
 the member's strain energy from the solver (eqs 80-82); rigid parts carry none.
 
 Lengths mm, forces N, energies mJ. VTK renders off-screen (EGL), no display needed.
@@ -44,7 +46,8 @@ from sensor.mechanics.solver import SolveResult, prepare
 ON_PART_TOL_MM = 1e-6
 
 #: The automatic scale magnifies the largest displacement to this fraction of the body's
-#: larger footprint dimension, rounded down to 1, 2 or 5 x 10^k and never below 1.
+#: larger footprint dimension, rounded down to 1, 2 or 5 x 10^k and never below 1 (and
+#: lowered further while it would draw rigid parts through each other).
 AUTO_SCALE_FRACTION = 0.08
 
 #: Mesh edge length as a fraction of the hinge length: about 10 segments bend each hinge.
@@ -282,6 +285,54 @@ def body_mesh(design: Design):
     return mesh.subdivide_adaptive(max_edge_len=EDGE_PER_HINGE_LENGTH * design.hinge_length_mm)
 
 
+def _step_down(scale: float) -> float:
+    """The next smaller value of the 1, 2, 5 x 10^k sequence."""
+    k = math.floor(math.log10(scale) + 1e-9)
+    m = scale / 10.0**k
+    return (5.0 if m > 5 + 1e-9 else 2.0 if m > 2 + 1e-9 else 1.0 if m > 1 + 1e-9 else 0.5) * 10.0**k
+
+
+def rigid_outlines(parts: list[Part], motions: list[PartMotion], model: BeamModel,
+                   result: SolveResult) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """(name, outline at rest (k, 2), displacement of its corners (k, 2)) of every rigid part."""
+    X0, x, th = model.nodes, result.deformed_nodes, result.node_rotation_rad
+    return [(p.name, p.polygon, _rigid(p.polygon, X0[mo.node], x[mo.node] - X0[mo.node], float(th[mo.node])))
+            for p, mo in zip(parts, motions) if mo.member < 0]
+
+
+def overlapping_parts(outlines, scale: float) -> list[tuple[str, str]]:
+    """Pairs of rigid parts apart at rest whose outlines overlap when the displacements are
+    magnified by ``scale`` (a rigid motion magnified is still an affine map of the outline)."""
+    pairs = []
+    for i, (name_a, a, ua) in enumerate(outlines):
+        for name_b, b, ub in outlines[i + 1:]:
+            if not _overlap(a, b) and _overlap(a + scale * ua, b + scale * ub):
+                pairs.append((name_a, name_b))
+    return pairs
+
+
+def picture_scale(outlines, max_displacement_mm: float, size_mm: float,
+                  scale: float | None = None) -> float:
+    """The displacement scale of the picture: ``scale`` if given, else :func:`auto_scale`
+    stepped down (1, 2, 5 x 10^k) until no rigid parts apart at rest overlap, never below 1.
+
+    Raises :class:`SensorInputError` for a given scale above 1 that draws parts through
+    each other which do not touch at true scale.
+    """
+    if scale is not None:
+        hits = overlapping_parts(outlines, scale)
+        if scale > 1 and hits and not overlapping_parts(outlines, 1.0):
+            safe = picture_scale(outlines, max_displacement_mm, size_mm, None)
+            raise SensorInputError(
+                f"scale = {scale:g}: the magnified displacements draw the {hits[0][0]} through "
+                f"the {hits[0][1]}; use at most the automatic {safe:g} (omit --scale)")
+        return float(scale)
+    s = auto_scale(max_displacement_mm, size_mm)
+    while s > 1 and overlapping_parts(outlines, s):
+        s = max(_step_down(s), 1.0)
+    return s
+
+
 @dataclass(frozen=True)
 class RenderedBody:
     """What the picture shows: the undeformed mesh, the displacement of its points (mm), the
@@ -295,7 +346,8 @@ class RenderedBody:
 
 def deformed_body(design: Design, model: BeamModel, result: SolveResult, parts: list[Part],
                   scale: float | None = None) -> RenderedBody:
-    """Mesh the body and evaluate the solved displacement and strain energy density on it."""
+    """Mesh the body and evaluate the solved displacement and strain energy density on it;
+    the displacement scale is :func:`picture_scale`."""
     mesh = body_mesh(design)
     motions = part_motions(parts, model)
     pts = np.asarray(mesh.points[:, :2], dtype=float)
@@ -304,10 +356,10 @@ def deformed_body(design: Design, model: BeamModel, result: SolveResult, parts: 
     sed_part = np.array([0.0 if mo.member < 0 else sed_member[mo.member] for mo in motions])
     centres = np.asarray(mesh.cell_centers().points[:, :2], dtype=float)
     cell_sed = sed_part[assign_parts(parts, centres)]
-    if scale is None:
-        scale = auto_scale(float(np.linalg.norm(u, axis=1).max()),
-                           max(design.width_mm, design.height_mm))
-    return RenderedBody(mesh, u, cell_sed, float(scale))
+    scale = picture_scale(rigid_outlines(parts, motions, model, result),
+                          float(np.linalg.norm(u, axis=1).max()),
+                          max(design.width_mm, design.height_mm), scale)
+    return RenderedBody(mesh, u, cell_sed, scale)
 
 
 def _use_offscreen_gl() -> None:

@@ -10,29 +10,31 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from sensor.readout.datasheet import Datasheet
-from sensor.readout.optics import linearity, output_voltage, working_range
+from sensor.readout.optics import output_voltage, working_range
 from sensor.readout.sensor_model import SensorModel, loading_cycle
 
 
 def intensity_figure(sensor: SensorModel, ds: Datasheet, tolerance_pct: float) -> Figure:
     """Output voltage against mirror-fiber gap (cf. thesis Figure 62), with the widest gap
-    interval within ``tolerance_pct`` % FS of a line and the sensor's own gap interval."""
+    interval where V(gap) stays within ``tolerance_pct`` % of its span from a line (optics
+    alone) and the sensor's own gap interval, labelled with the datasheet's nonlinearity
+    (force to volts, :func:`~sensor.readout.datasheet.datasheet`): one number per sensor."""
     model = sensor.readout.model
     gaps = np.linspace(0.0, 3.0, 301)
     wr = working_range(sensor.optics, tolerance_pct, model, step_mm=0.01)
-    used = linearity(ds.gap_min_mm, ds.gap_max_mm, sensor.optics, model, step_mm=0.005)
     fig = Figure(figsize=(6.4, 4.2), layout="tight")
     ax = fig.subplots()
     ax.plot(gaps, output_voltage(gaps, sensor.optics, model), color="k", lw=1.5,
             label=f"{model} model, NA {sensor.optics.numerical_aperture:g}, "
                   f"core {sensor.optics.core_diameter_mm:g} mm")
     ax.axvspan(wr.gap_lo_mm, wr.gap_hi_mm, color="tab:green", alpha=0.15,
-               label=f"widest within {tolerance_pct:g} % FS: {wr.gap_lo_mm:.2f}-{wr.gap_hi_mm:.2f} mm")
+               label=f"optics alone, widest gap interval with V(gap) within {tolerance_pct:g} % "
+                     f"of a line: {wr.gap_lo_mm:.2f}-{wr.gap_hi_mm:.2f} mm")
     for x in (ds.gap_min_mm, ds.gap_max_mm):
         ax.axvline(x, color="tab:red", ls="--", lw=1)
     ax.plot([], [], color="tab:red", ls="--",
-            label=f"sensor range {ds.gap_min_mm:.2f}-{ds.gap_max_mm:.2f} mm: "
-                  f"{used.nonlinearity_pct:.1f} % FS nonlinear")
+            label=f"sensor's gap range {ds.gap_min_mm:.2f}-{ds.gap_max_mm:.2f} mm: "
+                  f"nonlinearity {ds.nonlinearity_pct:.2f} % FS (datasheet)")
     ax.set(xlabel="mirror-fiber gap (mm)", ylabel="output voltage (V)",
            title=f"{sensor.name}: intensity vs gap (cf. thesis Figure 62)")
     ax.legend(fontsize=8)
@@ -54,7 +56,7 @@ def calibration_figure(sensor: SensorModel, ds: Datasheet) -> Figure:
     ax.set(xlabel="applied force (N)", ylabel="sensor output (V)",
            title=f"{sensor.name}: calibration (cf. thesis Figures 43, 45)")
     ax.text(0.97, 0.05, f"hysteresis {ds.hysteresis_pct:.2f} % FS\n"
-                        f"nonlinearity {ds.nonlinearity_pct:.1f} % FS",
+                        f"nonlinearity {ds.nonlinearity_pct:.2f} % FS",
             transform=ax.transAxes, ha="right", va="bottom", fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
     err = 1e3 * (r.newtons - r.force_N)

@@ -1,6 +1,8 @@
 """``dacm export`` and ``dacm draw`` through the CLI entry point: files written, bad input
 reported in one line with exit status 2 and nothing left behind."""
 
+import json
+
 import ezdxf
 import ezdxf.bbox
 import pytest
@@ -11,12 +13,26 @@ from geometry.topology import load_model
 
 def test_export_preset_writes_what_it_prints(tmp_path, dacm):
     status, out, err = dacm("export", "--preset", "sample-a", "--out", str(tmp_path),
-                           "--dxf", "--json")
+                           "--dxf", "--beam-model")
     assert status == 0 and err == ""
     written = sorted(tmp_path.iterdir())
     assert [p.name for p in written] == ["sample-a.dxf", "sample-a.json"]
     assert out.splitlines() == [f"wrote {tmp_path / 'sample-a.dxf'}", f"wrote {tmp_path / 'sample-a.json'}"]
     assert load_model(tmp_path / "sample-a.json").E_MPa == 2300.0
+
+
+def test_export_json_prints_the_files_and_solve_reads_the_beam_model(tmp_path, dacm):
+    """`--json` is stdout (as in every command), `--beam-model` the file; the README's
+    `dacm solve --model` example solves what export wrote, to the design's own numbers."""
+    status, out, err = dacm("export", "--preset", "sample-b", "--out", str(tmp_path),
+                           "--beam-model", "--json")
+    assert status == 0 and err == ""
+    files = json.loads(out)
+    assert files == {"design": "sample-b", "kerf_mm": None,
+                     "files": {"json": str(tmp_path / "sample-b.json")}}
+    by_model = json.loads(dacm("solve", "--model", str(tmp_path / "sample-b.json"), "--json")[1])
+    by_design = json.loads(dacm("solve", "--preset", "sample-b", "--json")[1])
+    assert by_model["amplification"] == by_design["amplification"]  # the same model, same solver
 
 
 def test_export_all_formats_from_flags_with_kerf(tmp_path, dacm):
@@ -37,7 +53,7 @@ def test_export_from_toml_is_named_after_the_file(tmp_path, dacm):
     out_dir = tmp_path / "out"
     out_dir.mkdir()
     status, _, _ = dacm("export", "--config", str(tmp_path / "mine.toml"), "--out",
-                       str(out_dir), "--json")
+                       str(out_dir), "--beam-model")
     assert status == 0
     assert [p.name for p in out_dir.iterdir()] == ["mine.json"]
 
@@ -82,22 +98,24 @@ def test_export_bad_design_creates_no_folder(tmp_path, dacm):
     assert status == 2 and list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("suffix, magic", [(".png", b"\x89PNG"), (".svg", b"<?xml")])
-def test_draw_writes_picture(tmp_path, dacm, suffix, magic):
-    target = tmp_path / f"a{suffix}"
-    status, out, _ = dacm("draw", "--preset", "sample-a", "--out", str(target), "--dpi", "60")
+@pytest.mark.parametrize("fmt, magic", [("png", b"\x89PNG"), ("svg", b"<?xml")])
+def test_draw_writes_picture(tmp_path, dacm, fmt, magic):
+    target = tmp_path / "new" / f"sample-a-profile.{fmt}"
+    status, out, _ = dacm("draw", "--preset", "sample-a", "--out", str(target.parent),
+                          "--format", fmt, "--dpi", "60")
     assert status == 0 and out == f"wrote {target}\n"
     assert target.read_bytes().startswith(magic)
-    assert [p.name for p in tmp_path.iterdir()] == [target.name]
+    assert [p.name for p in target.parent.iterdir()] == [target.name]
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--out", "{tmp}/a.jpg"], "must end in .png or .svg"),
-    (["--out", "{tmp}/missing/a.png"], "output folder does not exist"),
-    (["--phi1", "40", "--out", "{tmp}/a.png"], "rule 'angle_limits' fails"),
+    (["--out", "{tmp}/a.svg"], "--out = '{tmp}/a.svg': --out is a folder now"),
+    (["--format", "jpg"], "--format = 'jpg': must be one of png, svg"),
+    (["--phi1", "40", "--out", "{tmp}/o"], "rule 'angle_limits' fails"),
 ])
 def test_draw_bad_input(tmp_path, dacm, argv, message):
     argv = [a.format(tmp=tmp_path) for a in argv]
+    message = message.format(tmp=tmp_path)
     status, _, err = dacm("draw", *argv)
     assert status == 2 and len(err.splitlines()) == 1
     assert err.startswith("dacm draw: error: ") and message in err

@@ -63,10 +63,10 @@ def _numbers(flag, values):
 COMMANDS = {
     "export": (_design_cases() + _numbers("--kerf", BAD_NUMBERS + ["0", "6"]), ["--dxf", "--out", "OUT"]),
     "check": (_design_cases(), []),
-    "draw": (_design_cases() + _numbers("--dpi", BAD_NUMBERS + ["0", "5000"]), ["--out", "OUT/d.png"]),
+    "draw": (_design_cases() + _numbers("--dpi", BAD_NUMBERS + ["0", "5000"]), ["--out", "OUT"]),
     "render": (_design_cases() + _numbers("--target-output", BAD_NUMBERS + ["0", "31"])
                + _numbers("--scale", BAD_NUMBERS) + _numbers("--window-size", ["1e308x2", "0x0", "x"]),
-               ["--out", "OUT/r.png"]),
+               ["--out", "OUT"]),
     "solve": (_design_cases() + _numbers("--target-output", BAD_NUMBERS + ["31"])
               + _numbers("--target-force", BAD_NUMBERS) + _numbers("--increments", BAD_INTEGERS)
               + [["--model", ("json", m)] for m in MODELS], []),
@@ -173,7 +173,7 @@ def test_ctrl_c_in_a_command_is_one_line_and_status_130(tmp_path):
 
     root = Path(__file__).resolve().parents[2]
     proc = subprocess.Popen([sys.executable, "-c", "import sys; from sensor.cli import main; sys.exit(main())",
-                             "render", "--out", str(tmp_path / "r.png")], cwd=root,
+                             "render", "--out", str(tmp_path / "r")], cwd=root,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(2.5)
     proc.send_signal(signal.SIGINT)

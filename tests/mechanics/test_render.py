@@ -8,12 +8,16 @@ from geometry.layout import Part, bar, make_layout, make_parts
 from geometry.params import preset
 from geometry.topology import BeamModel, build_beam_model
 from sensor.cli import main
+from sensor.errors import SensorInputError
 from sensor.mechanics.render import (
     auto_scale,
     body_mesh,
     displacement_field,
     member_strain_energy,
+    overlapping_parts,
     part_motions,
+    picture_scale,
+    rigid_outlines,
     strain_energy_density,
 )
 from sensor.mechanics.solver import solve
@@ -140,6 +144,23 @@ def test_auto_scale_rounds_down_to_1_2_5():
     assert auto_scale(0.0, 30.0) == 1.0
 
 
+def test_magnified_picture_never_draws_the_platform_through_the_fiber_post(sample_b):
+    """At 1 mm output travel sample B's platform comes to 0.2 mm of the fiber post (rest gap
+    fiber_clearance_mm = 1.2 mm). Magnified by s its drawn gap is 1.2 - s x 1.0 mm: the
+    outlines overlap from s = 1.2 on (the platform turns by 1e-9 rad at most, symmetric
+    body: 1 % either side of the threshold is far outside that), so the automatic scale
+    (ideal 2) steps down to 1, and an explicit --scale 2 is refused with the two parts named."""
+    design, model, result, parts = sample_b
+    outlines = rigid_outlines(parts, part_motions(parts, model), model, result)
+    limit = design.fiber_clearance_mm / result.output_travel_mm
+    assert overlapping_parts(outlines, 0.99 * limit) == []
+    assert overlapping_parts(outlines, 1.01 * limit) == [("fiber post", "platform")]
+    assert picture_scale(outlines, 1.0, max(design.width_mm, design.height_mm)) == 1.0
+    with pytest.raises(SensorInputError, match="scale = 2: .*fiber post through the platform"):
+        picture_scale(outlines, 1.0, 30.0, 2.0)
+    assert picture_scale(outlines, 1.0, 30.0, 1.0) == 1.0
+
+
 def test_render_without_display_writes_the_default_png(tmp_path, monkeypatch, capsys):
     """One off-screen render with no DISPLAY at all: the default path, the requested size,
     and a real picture (pixel variance; warm hinge colours and the grey rigid parts)."""
@@ -164,14 +185,15 @@ def test_render_without_display_writes_the_default_png(tmp_path, monkeypatch, ca
     (["--window-size", "big"], "--window-size = 'big'"),
     (["--scale", "-2"], "--scale = -2"),
     (["--target-output", "0"], "--target-output = 0"),
-    (["--out", "{tmp}/x.jpg"], "must end in .png"),
+    (["--out", "{tmp}/x.png"], "--out is a folder now"),
+    (["--scale", "2"], "scale = 2: the magnified displacements draw the fiber post through the platform"),
     (["--phi1", "80"], "phi1"),
     (["--preset", "sample-z"], "sample-z"),
 ])
 def test_bad_input_exits_2_with_one_line_and_no_file(tmp_path, capsys, argv, words):
     argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
     if "--out" not in argv:
-        argv += ["--out", str(tmp_path / "r.png")]
+        argv += ["--out", str(tmp_path / "r")]
     status = main(["render", *argv])
     out, err = capsys.readouterr()
     assert status == 2 and out == ""

@@ -1,0 +1,72 @@
+"""The one output rule of every ``dacm`` command that writes files.
+
+``--out DIR`` (default ``./dacm-out/``, created when the first file is written) holds every
+file of a command, named after the design (or the study); a file that exists is replaced only
+with ``--force``. Otherwise the command stops with one line naming the file, before it computes
+anything, whenever the names are known up front (:func:`claim`).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterable
+from pathlib import Path
+
+from sensor.errors import UsageError
+
+DEFAULT_OUT_DIR = Path("dacm-out")
+
+#: Suffixes that make ``--out`` look like a file name rather than a folder.
+FILE_SUFFIXES = (".png", ".svg", ".pdf", ".jpg", ".html", ".csv", ".nc", ".json", ".toml",
+                 ".dxf", ".stl", ".step", ".md")
+
+
+def add_output_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    """Add ``--out DIR`` and ``--force`` to a command; ``what`` names the files it writes."""
+    g = parser.add_argument_group("output")
+    g.add_argument("--out", type=Path, default=DEFAULT_OUT_DIR, metavar="DIR",
+                   help=f"folder for {what} (default ./dacm-out/; created if missing)")
+    g.add_argument("--force", action="store_true",
+                   help="replace files that exist (without it the command stops first)")
+
+
+def check_out_dir(out: Path) -> None:
+    """Raise :class:`UsageError` when ``--out`` is an existing file or looks like a file name."""
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out = {str(out)!r}: is a file; --out is the folder the files "
+                         "are written to (they are named after the design)")
+    if not out.exists() and out.suffix.lower() in FILE_SUFFIXES:
+        fmt = " --format svg" if out.suffix.lower() == ".svg" else ""
+        raise UsageError(f"--out = {str(out)!r}: --out is a folder now (the files are named "
+                         f"after the design): use --out {out.parent}{fmt}, or another folder")
+
+
+def refuse_existing(paths: Iterable[Path], force: bool, hint: str = "") -> None:
+    """Raise :class:`UsageError` naming the first of ``paths`` that exists, unless ``force``;
+    ``hint`` is another way out, e.g. ``"--resume to finish it"``."""
+    if force:
+        return
+    paths = list(paths)
+    existing = [p for p in paths if Path(p).exists()]
+    if existing:
+        more = f" ({len(existing)} of the {len(paths)} files to write do)" if len(existing) > 1 else ""
+        raise UsageError(f"{existing[0]} exists{more}: use --force to replace, "
+                         f"{hint + ', ' if hint else ''}or another --out")
+
+
+def claim(args: argparse.Namespace, names: Iterable[str], hint: str = "") -> list[Path]:
+    """The paths ``args.out / name`` of the files a command will write, checked by the rule:
+    ``--out`` is a folder, and none of them exists unless ``--force``."""
+    check_out_dir(args.out)
+    paths = [args.out / name for name in names]
+    refuse_existing(paths, args.force, hint)
+    return paths
+
+
+def make_out_dir(out: Path) -> Path:
+    """Create ``out`` (and its parents) when the first file is about to be written."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(f"cannot create output folder {out}: {exc.strerror}") from None
+    return out
