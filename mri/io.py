@@ -225,8 +225,40 @@ def load_dicom_series(folder) -> MriImage:
 # --------------------------------------------------------------------------- other formats
 
 
+#: RAS (NIfTI) to LPS (DICOM) patient coordinates.
+_RAS_TO_LPS = np.diag([-1.0, -1.0, 1.0])
+
+
+def display_orientation(affine: np.ndarray, shape: tuple[int, ...]) -> tuple[tuple[bool, ...], np.ndarray]:
+    """Which voxel axes (i, j[, k]) to flip so that a NIfTI image is stored as a DICOM viewer
+    shows it, and the LPS affine (3 x 4, mm) after the flips.
+
+    In-plane, columns (i) and rows (j) must run toward patient left, posterior or inferior,
+    whichever their direction is closest to (DICOM's display: radiological, head up);
+    slices (k) must run along the normal cross(i, j), the order of a sorted DICOM series.
+    The same voxels stored in any flipped order (e.g. dcm2niix's flipped rows) give the same
+    pixels, so no result depends on storage order.
+    """
+    lps = np.column_stack([_RAS_TO_LPS @ affine[:3, :3], _RAS_TO_LPS @ affine[:3, 3]])
+    target = np.array([1.0, 1.0, -1.0])  # +L, +P, -S (toward inferior)
+    flips = []
+    for axis in range(2):
+        direction = lps[:, axis]
+        dominant = int(np.argmax(np.abs(direction)))
+        flips.append(bool(direction[dominant] * target[dominant] < 0))
+    if len(shape) == 3:
+        u, v = (lps[:, a] * (-1 if f else 1) for a, f in enumerate(flips))
+        flips.append(bool(np.dot(np.cross(u, v), lps[:, 2]) < 0))
+    for axis, flip in enumerate(flips):
+        if flip:
+            lps[:, 3] += lps[:, axis] * (shape[axis] - 1)
+            lps[:, axis] *= -1
+    return tuple(flips), lps
+
+
 def load_nifti(path) -> MriImage:
-    """A NIfTI-1/2 image or volume (scaled); axes (i, j, k) become (slices=k, rows=j, cols=i)."""
+    """A NIfTI-1/2 image or volume (scaled), shown as a DICOM viewer would: axes (i, j, k)
+    become (slices=k, rows=j, cols=i), each flipped as :func:`display_orientation` says."""
     import nibabel
 
     p = Path(path)
@@ -242,11 +274,15 @@ def load_nifti(path) -> MriImage:
             f"{p}: NIfTI image of shape {data.shape}; expected 2-D or 3-D (extract one volume "
             "of a time series first)"
         )
+    if not np.all(np.isfinite(img.affine)) or abs(np.linalg.det(img.affine[:3, :3])) == 0:
+        raise ImageLoadError(f"{p}: the NIfTI affine is singular or not finite; the file "
+                             "carries no usable orientation")
     zooms = [float(z) for z in img.header.get_zooms()[: data.ndim]]
+    flips, lps = display_orientation(img.affine, data.shape)
+    data = np.flip(data, [axis for axis, flip in enumerate(flips) if flip])
     pixels = as_pixels(np.transpose(data), str(p))
-    affine = img.affine
-    row_dir = affine[:3, 0] / np.linalg.norm(affine[:3, 0])
-    col_dir = affine[:3, 1] / np.linalg.norm(affine[:3, 1])
+    row_dir = lps[:, 0] / np.linalg.norm(lps[:, 0])
+    col_dir = lps[:, 1] / np.linalg.norm(lps[:, 1])
     return MriImage(
         pixels=pixels,
         source=str(p),
@@ -254,7 +290,7 @@ def load_nifti(path) -> MriImage:
         pixel_spacing_mm=(zooms[1], zooms[0]),
         slice_thickness_mm=zooms[2] if data.ndim == 3 else None,
         orientation=tuple(float(v) for v in np.concatenate([row_dir, col_dir])),
-        position_mm=tuple(float(v) for v in affine[:3, 3]),
+        position_mm=tuple(float(v) for v in lps[:, 3]),
     )
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mri.errors import MeasurementError
+from mri.errors import MeasurementError, RoiError
 from mri.roi import Roi, RoiSpec, resolve_roi
 
 METHODS = ("thesis", "nema")
@@ -60,13 +60,16 @@ class MethodResult:
 @dataclass(frozen=True)
 class SliceResult:
     """One slice: each method's result and the thesis difference, with its totals sum |a - b|
-    and sum a (pixel units) from which a volume's difference is summed."""
+    and sum a (pixel units) from which a volume's difference is summed. A slice of a volume
+    whose ROIs cannot be placed (no phantom, a box outside it) has no methods and says why in
+    ``skipped``; it is left out of the summaries (its difference is None when sum a <= 0)."""
 
     index: int
-    difference_percent: float
+    difference_percent: float | None
     methods: tuple[MethodResult, ...]
     sum_abs_difference: float
     sum_a: float
+    skipped: str = ""
 
 
 @dataclass(frozen=True)
@@ -201,10 +204,16 @@ def measure_slice(
 
 
 def summarise(slices: tuple[SliceResult, ...]) -> PairResult:
-    """Per-method summaries over slices and the total difference of the whole volume."""
+    """Per-method summaries over the measured slices and the total difference of the whole
+    volume (every slice); an error when no slice was measured."""
+    measured = [s for s in slices if not s.skipped]
+    if not measured:
+        reasons = "; ".join(f"slice {s.index}: {s.skipped}" for s in slices[:3])
+        raise MeasurementError(f"no slice of the {len(slices)} could be measured ({reasons}"
+                               f"{'; ...' if len(slices) > 3 else ''})")
     summaries = []
-    for k, result in enumerate(slices[0].methods):
-        per_slice = [s.methods[k] for s in slices]
+    for k, result in enumerate(measured[0].methods):
+        per_slice = [s.methods[k] for s in measured]
         snrs = [m.snr for m in per_slice]
         summaries.append(
             MethodSummary(
@@ -227,18 +236,26 @@ def measure_pair(
     slice of a.
 
     ``spacing_mm`` is (row, col) in mm or None; ``specs_by_method`` maps each method to measure
-    to its ROI specs.
+    to its ROI specs. A single slice whose ROIs or measures fail raises; in a volume such a
+    slice is skipped with its reason (:class:`SliceResult`) and the others are measured.
     """
     if a.shape != b.shape:
         raise MeasurementError(f"pair shapes differ: {a.shape} and {b.shape}")
     slices = []
     for k in range(a.shape[0]):
         a_k, b_k = a[k].astype(np.float64), b[k].astype(np.float64)
-        rois = {
-            method: tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k))
-            for method, specs in specs_by_method.items()
-        }
-        slices.append(measure_slice(k, a_k, b_k, rois))
+        try:
+            rois = {
+                method: tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k))
+                for method, specs in specs_by_method.items()
+            }
+            slices.append(measure_slice(k, a_k, b_k, rois))
+        except (RoiError, MeasurementError) as exc:
+            if a.shape[0] == 1:
+                raise
+            diff_sum, a_sum = _sums(a_k, b_k)
+            slices.append(SliceResult(k, 100.0 * diff_sum / a_sum if a_sum > 0 else None,
+                                      (), diff_sum, a_sum, skipped=str(exc)))
     return summarise(tuple(slices))
 
 

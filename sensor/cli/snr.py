@@ -224,12 +224,15 @@ def _pair_text(pair: MeasuredPair) -> list[str]:
     else:
         lines.append(f"{'slice':>5} {'method':<7} {'signal':>10} {'noise':>9} {'SNR':>9} {'diff %':>8}")
         for s in res.slices:
+            if s.skipped:
+                lines.append(f"{s.index:>5} skipped: {s.skipped}")
             for m in s.methods:
                 lines.append(f"{s.index:>5} {m.method:<7} {m.signal:>10.2f} {m.noise:>9.3f} "
                              f"{m.snr:>9.2f} {s.difference_percent:>8.3f}")
         for summary in res.summaries:
+            measured = sum(1 for s in res.slices if not s.skipped)
             lines.append(
-                f"{summary.method} over {len(res.slices)} slices: SNR mean {summary.snr:.2f} "
+                f"{summary.method} over {measured} of {len(res.slices)} slices: SNR mean {summary.snr:.2f} "
                 f"(min {summary.snr_min:.2f}, max {summary.snr_max:.2f}), signal {summary.signal:.2f}, "
                 f"noise {summary.noise:.3f}"
             )

@@ -64,7 +64,7 @@ def test_volume_prints_per_slice_and_summary(capsys, tmp_path):
     np.save(tmp_path / "vb.npy", phantom(10, 2, slices=3))
     status, out, _ = run(capsys, tmp_path / "va.npy", tmp_path / "vb.npy", "--method", "thesis")
     assert status == 0
-    assert "thesis over 3 slices: SNR mean" in out
+    assert "thesis over 3 of 3 slices: SNR mean" in out
     assert sum(line.strip().startswith(("0 ", "1 ", "2 ")) for line in out.splitlines()) == 3
 
 

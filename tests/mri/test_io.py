@@ -178,13 +178,50 @@ def test_nifti_volume_axes_and_spacing(tmp_path):
     nibabel.save(nibabel.Nifti1Image(data, np.diag([0.8, 1.2, 4.0, 1.0])), tmp_path / "v.nii.gz")
     img = load_image(tmp_path / "v.nii.gz")
     assert img.shape == (3, 6, 8)
-    np.testing.assert_array_equal(img.pixels[2], data[:, :, 2].T)
+    # identity affine (RAS): i runs to the right and j to anterior; shown as DICOM shows it,
+    # columns run to the patient's left and rows to posterior, so both are flipped
+    np.testing.assert_array_equal(img.pixels[2], data[::-1, ::-1, 2].T)
+    assert img.orientation == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)  # LPS, as DICOM
+    assert img.position_mm == pytest.approx((-7 * 0.8, -5 * 1.2, 0.0))
     # the header stores float32 zooms: 1.2 comes back as 1.2000000477
     assert img.pixel_spacing_mm == pytest.approx((1.2, 0.8), rel=1e-7)
     assert img.slice_thickness_mm == 4.0
     nibabel.save(nibabel.Nifti1Image(data, np.diag([0.8, 1.0, 4.0, 1.0])), tmp_path / "w.nii")
     with pytest.raises(PairMismatchError, match="pixel spacing"):
         check_pair(img, load_image(tmp_path / "w.nii"))
+
+
+def test_nifti_result_does_not_depend_on_storage_order(tmp_path):
+    """The same axial slab stored as DICOM does (rows to posterior) and as dcm2niix does
+    (rows flipped, affine adjusted): identical pixels, geometry and SNR."""
+    import nibabel
+
+    from mri.roi import parse_roi
+    from mri.snr import measure_pair
+    from tests.mri.phantoms import noisy_pair, phantom
+
+    a, b = noisy_pair(phantom(shading=("linear", 0.4), chord_depth=10), 20.0, seed=2)
+    spacing, thickness = 0.9765625, 5.0
+    # voxel (i=col, j=row): x = -col (LPS +L is RAS -x), y = -row (+P is RAS -y)
+    dicom_like = np.array([[-spacing, 0, 0, 100.0], [0, -spacing, 0, 120.0],
+                           [0, 0, thickness, -10.0], [0, 0, 0, 1]])
+    flipped = dicom_like.copy()
+    flipped[:3, 3] += flipped[:3, 1] * (a.shape[0] - 1)
+    flipped[:3, 1] *= -1
+    results = []
+    for name, affine, rows in (("dicom", dicom_like, slice(None)), ("dcm2niix", flipped, slice(None, None, -1))):
+        images = []
+        for tag, pixels in (("a", a), ("b", b)):
+            path = tmp_path / f"{name}-{tag}.nii.gz"
+            nibabel.save(nibabel.Nifti1Image(pixels[rows].T[:, :, None].astype(np.float32), affine), path)
+            images.append(load_image(path))
+        np.testing.assert_array_equal(images[0].pixels[0], a.astype(np.float32))
+        result = measure_pair(images[0].pixels, images[1].pixels, images[0].pixel_spacing_mm,
+                              {"nema": (parse_roi("nema5"),), "thesis": (parse_roi("whole"),)})
+        results.append((images[0].orientation, images[0].position_mm,
+                        [s.snr for s in result.summaries]))
+    assert results[0][0] == pytest.approx(results[1][0]) and results[0][1] == pytest.approx(results[1][1])
+    assert results[0][2] == results[1][2]
 
 
 def test_png_tiff_npy_round_trip(tmp_path):
