@@ -24,6 +24,8 @@ DICOM_ACQUISITION_FIELDS = {
     "averages": ("NumberOfAverages",),
     "field_strength_t": ("MagneticFieldStrength",),
     "sequence": ("ScanningSequence", "PulseSequenceName"),
+    "phase_steps": ("NumberOfPhaseEncodingSteps",),
+    "acquisition_matrix": ("AcquisitionMatrix",),
 }
 
 #: Descriptive DICOM fields that may differ between the images of a pair with only a warning.

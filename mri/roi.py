@@ -16,6 +16,10 @@ ROI texts (sizes are pixels, or millimetres with an ``mm`` suffix; boxes are zer
                                    tools (hazen, McCann et al. 2013) place them for NEMA MS 1;
                                    every box must lie inside the phantom (holes filled), else
                                    :class:`BoxOutsidePhantomError` carries the boxes to draw
+``corners[:SIZE]``                 four SIZE boxes (default 1/8 of the image) in the image
+                                   corners, CORNER_INSET_PX from the edges: the air ROIs of the
+                                   background method; each must stay BACKGROUND_MARGIN_PX clear
+                                   of the phantom
 """
 
 from __future__ import annotations
@@ -33,6 +37,9 @@ from mri.phantom import find_phantom, phantom_mask
 PHANTOM_EROSION_PX = 5
 NEMA5_SIZE_PX = 20
 NEMA5_OFFSET_PX = 40
+#: Corner boxes: distance from the image edges, and the clearance kept from the phantom (px).
+CORNER_INSET_PX = 2
+BACKGROUND_MARGIN_PX = 3
 
 _LENGTH = re.compile(r"^(\d+(?:\.\d+)?)(mm|px)?$")
 
@@ -114,8 +121,8 @@ def parse_roi(text: str, mask_loader=None) -> RoiSpec:
         if height < 1 or width < 1:
             raise RoiError(f"ROI {text!r}: HEIGHT and WIDTH must be at least 1 pixel")
         return RoiSpec(text, kind, box=(row, col, height, width))
-    if kind in ("central-box", "central-circle", "phantom", "nema5"):
-        most = {"central-box": 2, "central-circle": 1, "phantom": 1, "nema5": 2}[kind]
+    if kind in ("central-box", "central-circle", "phantom", "nema5", "corners"):
+        most = {"central-box": 2, "central-circle": 1, "phantom": 1, "nema5": 2, "corners": 1}[kind]
         least = 1 if kind.startswith("central") else 0
         if not least <= len(args) <= most:
             raise RoiError(f"ROI {text!r}: {kind} takes {least} to {most} size(s); see --help")
@@ -126,7 +133,8 @@ def parse_roi(text: str, mask_loader=None) -> RoiSpec:
         return RoiSpec(text, kind, mask=np.asarray(mask_loader(rest)) != 0)
     raise RoiError(
         f"ROI {text!r} not understood; use whole, box:ROW:COL:HEIGHT:WIDTH, central-box:SIZE, "
-        "central-circle:DIAMETER, mask:PATH, phantom[:EROSION] or nema5[:SIZE[:OFFSET]]"
+        "central-circle:DIAMETER, mask:PATH, phantom[:EROSION], nema5[:SIZE[:OFFSET]] or "
+        "corners[:SIZE]"
     )
 
 
@@ -207,13 +215,13 @@ def nema5_boxes(centre_px, size_px, offset_px) -> tuple[tuple[str, tuple[int, in
     )
 
 
-def _nema5(spec: RoiSpec, image: np.ndarray, spacing) -> tuple[Roi, ...]:
+def _nema5(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...]:
     size_l = spec.lengths[0] if spec.lengths else Length(NEMA5_SIZE_PX, "px")
     off_l = spec.lengths[1] if len(spec.lengths) > 1 else Length(NEMA5_OFFSET_PX, "px")
     sr, sc = spacing if spacing else (None, None)
     size = (int(round(size_l.pixels(sr, spec.text))), int(round(size_l.pixels(sc, spec.text))))
     offset = (off_l.pixels(sr, spec.text), off_l.pixels(sc, spec.text))
-    phantom, fit = find_phantom(image)
+    phantom, fit = found
     rois, outside = [], []
     for name, box in nema5_boxes(fit.centre_px, size, offset):
         label = f"nema5 {name} {_box_label(*box)}"
@@ -238,6 +246,32 @@ def _nema5(spec: RoiSpec, image: np.ndarray, spacing) -> tuple[Roi, ...]:
     return tuple(rois)
 
 
+def _corners(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...]:
+    rows, cols = image.shape
+    size_l = spec.lengths[0] if spec.lengths else Length(min(rows, cols) // 8, "px")
+    sr, sc = spacing if spacing else (None, None)
+    size = (int(round(size_l.pixels(sr, spec.text))), int(round(size_l.pixels(sc, spec.text))))
+    inset = CORNER_INSET_PX
+    if size[0] + inset > rows // 2 or size[1] + inset > cols // 2:
+        raise RoiError(f"ROI {spec.text!r}: corner boxes of {size[0]} x {size[1]} px do not fit "
+                       f"the {rows} x {cols} image")
+    near = ndimage.binary_dilation(found[0], iterations=BACKGROUND_MARGIN_PX)
+    rois = []
+    for name, row, col in (("upper-left", inset, inset), ("upper-right", inset, cols - inset - size[1]),
+                           ("lower-left", rows - inset - size[0], inset),
+                           ("lower-right", rows - inset - size[0], cols - inset - size[1])):
+        box = (row, col, size[0], size[1])
+        label = f"corners {name} {_box_label(*box)}"
+        if near[row : row + size[0], col : col + size[1]].any():
+            raise RoiError(
+                f"ROI {spec.text!r}: the {name} corner box {_box_label(*box)} comes within "
+                f"{BACKGROUND_MARGIN_PX} px of the phantom; give smaller corners:SIZE or "
+                "explicit background boxes"
+            )
+        rois.append(Roi(label, _box_mask(image.shape, *box, label), box))
+    return tuple(rois)
+
+
 def _mask_roi(spec: RoiSpec, shape, slice_index: int) -> Roi:
     mask = spec.mask if spec.mask.ndim == 3 else spec.mask[np.newaxis]
     if mask.shape[1:] != shape or (mask.shape[0] != 1 and slice_index >= mask.shape[0]):
@@ -248,13 +282,17 @@ def _mask_roi(spec: RoiSpec, shape, slice_index: int) -> Roi:
     return Roi(spec.text, mask[0] if mask.shape[0] == 1 else mask[slice_index])
 
 
-def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0) -> tuple[Roi, ...]:
+def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0,
+                found=None) -> tuple[Roi, ...]:
     """The pixel mask(s) of ``spec`` on the 2-D ``image`` (slice ``slice_index`` of its volume).
 
-    ``spacing`` is (row, col) in mm or None. ROIs with fewer than two pixels, or reaching outside
-    the image, raise :class:`RoiError`.
+    ``spacing`` is (row, col) in mm or None; ``found`` is :func:`mri.phantom.find_phantom` of
+    ``image`` when the caller has it (found here otherwise). ROIs with fewer than two pixels,
+    or reaching outside the image, raise :class:`RoiError`.
     """
     shape = image.shape
+    if found is None and spec.kind in ("nema5", "corners"):
+        found = find_phantom(image)
     if spec.kind == "whole":
         rois = (Roi("whole", np.ones(shape, dtype=bool), (0, 0, *shape)),)
     elif spec.kind == "box":
@@ -269,9 +307,12 @@ def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0)
             erosion.pixels(spacing[0] if spacing else None, spec.text),
             erosion.pixels(spacing[1] if spacing else None, spec.text),
         )
-        rois = (Roi(spec.text, _eroded(phantom_mask(image), radius)),)
+        mask = found[0] if found is not None else phantom_mask(image)
+        rois = (Roi(spec.text, _eroded(mask, radius)),)
     elif spec.kind == "nema5":
-        rois = _nema5(spec, image, spacing)
+        rois = _nema5(spec, image, spacing, found)
+    elif spec.kind == "corners":
+        rois = _corners(spec, image, spacing, found)
     else:
         rois = (_mask_roi(spec, shape, slice_index),)
     for roi in rois:
