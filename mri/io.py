@@ -31,6 +31,11 @@ DICOM_ACQUISITION_FIELDS = {
 #: Descriptive DICOM fields that may differ between the images of a pair with only a warning.
 DICOM_DESCRIPTIVE_FIELDS = {"receive_coil": ("ReceiveCoilName",)}
 
+#: Transfer syntaxes whose pixel data is stored uncompressed (implicit/explicit VR, little/big
+#: endian, deflated): their length is checked against the header.
+NATIVE_TRANSFER_SYNTAXES = ("1.2.840.10008.1.2", "1.2.840.10008.1.2.1", "1.2.840.10008.1.2.2",
+                            "1.2.840.10008.1.2.1.99")
+
 _TIFF_SUFFIXES = (".tif", ".tiff")
 _PNG_SUFFIXES = (".png",)
 
@@ -66,11 +71,6 @@ def _read_dicom(path: Path):
         return None
     except (OSError, ValueError, EOFError) as exc:  # truncated or corrupt file
         raise ImageLoadError(f"{path}: unreadable DICOM file ({exc})") from None
-
-
-def _or_default(value, default: float) -> float:
-    """A DICOM number, or the default when the attribute is absent (not when it is 0)."""
-    return default if value is None else float(value)
 
 
 def _lookup(ds, keyword: str, frame: int = 0):
@@ -115,6 +115,55 @@ def _plain(value):
         return str(value)
 
 
+def _header_int(ds, keyword: str, path: Path, default=None) -> int:
+    """A DICOM integer attribute, an error naming it when absent or not a positive integer."""
+    value = ds.get(keyword, default)
+    try:
+        number = int(value)
+    except (TypeError, ValueError):
+        number = 0
+    if number < 1 or number > 2**31:
+        raise ImageLoadError(f"{path}: {keyword} = {value!r}: must be a positive whole number")
+    return number
+
+
+def _check_pixel_length(ds, path: Path) -> None:
+    """Refuse truncated or inconsistent native pixel data: its length must hold rows x
+    columns x frames x samples pixels of BitsAllocated bits (compressed data is checked by
+    its decoder)."""
+    if ds.file_meta.get("TransferSyntaxUID", "1.2.840.10008.1.2") not in NATIVE_TRANSFER_SYNTAXES:
+        return
+    rows, cols = _header_int(ds, "Rows", path), _header_int(ds, "Columns", path)
+    frames = _header_int(ds, "NumberOfFrames", path, 1)
+    bits = _header_int(ds, "BitsAllocated", path)
+    if bits not in (1, 8, 16, 32, 64):
+        raise ImageLoadError(f"{path}: BitsAllocated = {bits}: must be 1, 8, 16, 32 or 64")
+    expected = (rows * cols * frames * bits + 7) // 8
+    found = len(ds.PixelData)
+    if found < expected or found > expected + 1:  # one pad byte makes an odd length even
+        raise ImageLoadError(
+            f"{path}: pixel data holds {found} bytes, but Rows x Columns x NumberOfFrames x "
+            f"BitsAllocated = {rows} x {cols} x {frames} x {bits} bits needs {expected}; the "
+            "file is truncated or its header is inconsistent"
+        )
+
+
+def _numbers(ds, keyword: str, count: int, path, frame: int = 0) -> tuple[float, ...] | None:
+    """A multi-valued DICOM number (PixelSpacing, ImagePositionPatient, ...) as ``count``
+    finite floats, None when absent; an error naming it otherwise."""
+    value = _lookup(ds, keyword, frame)
+    if value in (None, ""):
+        return None
+    values = [value] if isinstance(value, (str, bytes, int, float)) else list(value)
+    try:
+        numbers = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        numbers = ()
+    if len(numbers) != count or not all(np.isfinite(numbers)):
+        raise ImageLoadError(f"{path}: {keyword} = {value!r}: must be {count} finite number(s)")
+    return numbers
+
+
 def _dicom_frames(ds, path: Path) -> np.ndarray:
     """Pixels of one DICOM dataset as floats (frames, rows, cols) with the rescale applied."""
     if "PixelData" not in ds:
@@ -125,32 +174,40 @@ def _dicom_frames(ds, path: Path) -> np.ndarray:
             f"{path}: colour DICOM ({ds.get('PhotometricInterpretation')}); "
             "MR magnitude images must be greyscale"
         )
+    _check_pixel_length(ds, path)
     try:
         raw = ds.pixel_array
     except Exception as exc:  # pydicom raises many types for unsupported encodings
         raise ImageLoadError(f"{path}: cannot decode DICOM pixel data ({exc})") from None
     frames = as_pixels(raw, str(path))
-    slopes = [_or_default(_lookup(ds, "RescaleSlope", k), 1.0) for k in range(frames.shape[0])]
-    intercepts = [_or_default(_lookup(ds, "RescaleIntercept", k), 0.0) for k in range(frames.shape[0])]
+    slopes = [(_numbers(ds, "RescaleSlope", 1, path, k) or (1.0,))[0] for k in range(frames.shape[0])]
+    intercepts = [(_numbers(ds, "RescaleIntercept", 1, path, k) or (0.0,))[0]
+                  for k in range(frames.shape[0])]
     if any(s == 0.0 for s in slopes):
         raise ImageLoadError(f"{path}: RescaleSlope = 0 would erase the image")
     if any(s != 1.0 for s in slopes) or any(i != 0.0 for i in intercepts):
         frames = frames * np.array(slopes)[:, None, None] + np.array(intercepts)[:, None, None]
+        if not np.isfinite(frames).all():
+            raise ImageLoadError(f"{path}: RescaleSlope/RescaleIntercept make pixel values "
+                                 "overflow; pixels must be finite")
     return frames
 
 
 def _dicom_image(ds, pixels: np.ndarray, source: str) -> MriImage:
     """Build an :class:`MriImage` from one dataset's metadata (the first slice's) and pixels."""
-    spacing = _lookup(ds, "PixelSpacing")
-    thickness = _lookup(ds, "SliceThickness")
-    orientation = _lookup(ds, "ImageOrientationPatient")
-    position = _lookup(ds, "ImagePositionPatient")
+    path = Path(source)
+    spacing = _numbers(ds, "PixelSpacing", 2, path)
+    if spacing is not None and min(spacing) <= 0:
+        raise ImageLoadError(f"{path}: PixelSpacing = {spacing}: must be positive")
+    thickness = _numbers(ds, "SliceThickness", 1, path)
+    orientation = _numbers(ds, "ImageOrientationPatient", 6, path)
+    position = _numbers(ds, "ImagePositionPatient", 3, path)
     scanner = " ".join(
         str(v)
         for v in (ds.get("Manufacturer"), ds.get("ManufacturerModelName"))
         if v not in (None, "")
     )
-    series_number = ds.get("SeriesNumber")
+    series_number = _numbers(ds, "SeriesNumber", 1, path)
     acquisition = {
         name: _plain(_first(ds, keywords)) for name, keywords in DICOM_ACQUISITION_FIELDS.items()
     }
@@ -161,12 +218,12 @@ def _dicom_image(ds, pixels: np.ndarray, source: str) -> MriImage:
         pixels=pixels,
         source=source,
         format="dicom",
-        pixel_spacing_mm=tuple(float(v) for v in spacing) if spacing else None,
-        slice_thickness_mm=float(thickness) if thickness not in (None, "") else None,
-        orientation=tuple(float(v) for v in orientation) if orientation else None,
-        position_mm=tuple(float(v) for v in position) if position else None,
+        pixel_spacing_mm=spacing,
+        slice_thickness_mm=thickness[0] if thickness else None,
+        orientation=orientation,
+        position_mm=position,
         series=str(ds.get("SeriesDescription") or "") or None,
-        series_number=int(series_number) if series_number not in (None, "") else None,
+        series_number=int(series_number[0]) if series_number else None,
         scanner=scanner or None,
         acquisition={k: v for k, v in acquisition.items() if v is not None},
     )
@@ -183,15 +240,16 @@ def load_dicom_file(path) -> MriImage:
     return _dicom_image(ds, _dicom_frames(ds, p), str(p))
 
 
-def _slice_key(ds) -> tuple[float, float]:
+def _slice_key(ds, path: Path) -> tuple[float, float]:
     """Sort key of a series file: position along the slice normal, then instance number."""
-    orientation = _lookup(ds, "ImageOrientationPatient")
-    position = _lookup(ds, "ImagePositionPatient")
+    orientation = _numbers(ds, "ImageOrientationPatient", 6, path)
+    position = _numbers(ds, "ImagePositionPatient", 3, path)
     along = 0.0
     if orientation and position:
-        cosines = np.array([float(v) for v in orientation])
-        along = float(np.dot(np.cross(cosines[:3], cosines[3:]), [float(v) for v in position]))
-    return along, float(ds.get("InstanceNumber") or 0)
+        cosines = np.array(orientation)
+        along = float(np.dot(np.cross(cosines[:3], cosines[3:]), position))
+    instance = _numbers(ds, "InstanceNumber", 1, path)
+    return along, instance[0] if instance else 0.0
 
 
 def load_dicom_series(folder) -> MriImage:
@@ -214,7 +272,7 @@ def load_dicom_series(folder) -> MriImage:
             f"{root}: folder holds {len(series)} DICOM series; give a folder with one series "
             "or a single file"
         )
-    datasets.sort(key=lambda item: _slice_key(item[1]))
+    datasets.sort(key=lambda item: _slice_key(item[1], item[0]))
     stacks = [_dicom_frames(ds, f) for f, ds in datasets]
     shapes = {s.shape[1:] for s in stacks}
     if len(shapes) > 1:

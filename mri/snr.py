@@ -212,14 +212,25 @@ def _sums(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 # --------------------------------------------------------------------------- measures
 
 
+def _finite(value: float, stage: str) -> float:
+    """``value``, or an error naming the stage that overflowed (pixels near 1e154 or more
+    overflow float64 when squared)."""
+    if not np.isfinite(value):
+        raise MeasurementError(f"{stage} is {value}: the pixel values overflow float64 "
+                               "arithmetic; scale the images down")
+    return value
+
+
 def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure:
+    _finite(noise, f"the noise of ROI {roi.label!r}")
     if not noise > 0.0:
         raise MeasurementError(
             f"zero noise in ROI {roi.label!r}: the noise image is constant there "
             "(identical images a and b, or a synthetic image), SNR is undefined"
         )
-    signal = float(np.mean(roi.pixels(signal_image)))
-    return RoiMeasure(roi.label, roi.n_pixels, signal, noise, signal / noise)
+    signal = _finite(float(np.mean(roi.pixels(signal_image))), f"the signal of ROI {roi.label!r}")
+    return RoiMeasure(roi.label, roi.n_pixels, signal, noise,
+                      _finite(signal / noise, f"the SNR of ROI {roi.label!r}"))
 
 
 def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
@@ -287,7 +298,8 @@ def measure_slice(
                     results.append(measure_single(image, name, rois, method, background_rois, kernel_px))
     if diff is None:
         return SliceResult(index, None, tuple(results), None, float(np.sum(a)))
-    sum_abs_difference, sum_a = float(np.sum(np.abs(diff))), float(np.sum(a))
+    sum_abs_difference = _finite(float(np.sum(np.abs(diff))), f"slice {index}: sum |a - b|")
+    sum_a = _finite(float(np.sum(a)), f"slice {index}: sum a")
     return SliceResult(index, _percent(sum_abs_difference, sum_a), tuple(results),
                        sum_abs_difference, sum_a)
 
@@ -320,7 +332,8 @@ def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | Non
     if slices[0].sum_abs_difference is None:
         total = None
     else:
-        total = _percent(sum(s.sum_abs_difference for s in slices), sum(s.sum_a for s in slices))
+        total = _finite(_percent(sum(s.sum_abs_difference for s in slices),
+                                 sum(s.sum_a for s in slices)), "the total difference")
     return PairResult(slices, tuple(summaries), total, normalisation_factor)
 
 
@@ -341,36 +354,42 @@ def measure_pair(
     ``corners``). A single slice whose ROIs or measures fail raises; in a volume such a slice
     is skipped with its reason (:class:`SliceResult`) and the others are measured.
     """
-    from mri.phantom import find_phantom
-
     if b is not None and a.shape != b.shape:
         raise MeasurementError(f"pair shapes differ: {a.shape} and {b.shape}")
     if background_specs is None:
         background_specs = (parse_roi(DEFAULT_BACKGROUND_ROI),) if "background" in specs_by_method else ()
     all_specs = [spec for specs in specs_by_method.values() for spec in specs] + list(background_specs)
     needs_phantom = any(spec.kind in _PHANTOM_KINDS for spec in all_specs)
-    slices = []
-    for k in range(a.shape[0]):
-        a_k = a[k].astype(np.float64)
-        b_k = None if b is None else b[k].astype(np.float64)
-        try:
-            found = find_phantom(a_k) if needs_phantom else None
-
-            def resolve(specs):
-                return tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k, found))
-
-            rois = {method: resolve(specs) for method, specs in specs_by_method.items()}
-            slices.append(measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px))
-        except (RoiError, MeasurementError) as exc:
-            if a.shape[0] == 1:
-                raise
-            if b_k is None:
-                slices.append(SliceResult(k, None, (), None, float(np.sum(a_k)), skipped=str(exc)))
-                continue
-            diff_sum, a_sum = _sums(a_k, b_k)
-            slices.append(SliceResult(k, 100.0 * diff_sum / a_sum if a_sum > 0 else None,
-                                      (), diff_sum, a_sum, skipped=str(exc)))
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked, not warned
+        slices = [_measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs,
+                                         kernel_px, needs_phantom) for k in range(a.shape[0])]
     return summarise(tuple(slices), normalisation_factor)
+
+
+def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs, kernel_px,
+                           needs_phantom) -> SliceResult:
+    """Slice ``k`` measured, or (in a volume) skipped with the reason its ROIs or measures
+    failed."""
+    from mri.phantom import find_phantom
+
+    a_k = a[k].astype(np.float64)
+    b_k = None if b is None else b[k].astype(np.float64)
+    try:
+        found = find_phantom(a_k) if needs_phantom else None
+
+        def resolve(specs):
+            return tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k, found))
+
+        rois = {method: resolve(specs) for method, specs in specs_by_method.items()}
+        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px)
+    except (RoiError, MeasurementError) as exc:
+        if a.shape[0] == 1:
+            raise
+        if b_k is None:
+            return SliceResult(k, None, (), None, float(np.sum(a_k)), skipped=str(exc))
+        diff_sum, a_sum = _sums(a_k, b_k)
+        return SliceResult(k, 100.0 * diff_sum / a_sum if a_sum > 0 else None,
+                           (), diff_sum, a_sum, skipped=str(exc))
 
 
 def magnitude_snr(true_snr: float) -> float:

@@ -112,12 +112,15 @@ def _bad_inputs(tmp_path, files):
     nan = base.copy()
     nan[5, 5] = np.nan
     np.save(tmp_path / "nan.npy", nan)
+    np.save(tmp_path / "huge_a.npy", 1e305 * (1 + 0.01 * phantom(10, 1)[0]))
+    np.save(tmp_path / "huge_b.npy", 1e305 * (1 + 0.01 * phantom(10, 2)[0]))
     (tmp_path / "empty").mkdir()
     (tmp_path / "empty" / "x.txt").write_text("no images")
     return {
         "mismatched shapes": ([files["a1"], tmp_path / "other_shape.npy"], "shapes differ"),
         "folder with no images": ([tmp_path / "empty", files["a1"]], "no DICOM image"),
         "NaN pixels": ([files["a1"], tmp_path / "nan.npy"], "NaN"),
+        "values near 1e305": ([tmp_path / "huge_a.npy", tmp_path / "huge_b.npy"], "overflow float64"),
         "identical images": ([files["a1"], files["a1"]], "zero noise"),
         "ROI outside": ([files["a1"], files["a2"], "--roi", "box:250:250:20:20"], "outside"),
         "empty ROI": ([files["a1"], files["a2"], "--roi", "central-circle:1"], "holds 0 pixel"),
@@ -149,7 +152,7 @@ def _bad_inputs(tmp_path, files):
 
 @pytest.mark.parametrize(
     "case",
-    ["mismatched shapes", "folder with no images", "NaN pixels", "identical images", "ROI outside",
+    ["mismatched shapes", "folder with no images", "NaN pixels", "values near 1e305", "identical images", "ROI outside",
      "empty ROI", "bad ROI text", "mm without spacing", "pair method on one image", "three images",
      "figure not an image", "bad acquisition override", "unknown acquisition field",
      "negative override", "kernel", "condition without reference",

@@ -306,3 +306,59 @@ def test_shape_mismatch_and_spacing_known_for_one_image(tmp_path):
         check_pair(load_image(tmp_path / "a.npy"), load_image(tmp_path / "small.npy"))
     warnings = check_pair(a, load_image(tmp_path / "a.npy"))
     assert any(w.startswith("pixel spacing (mm) known only for a") for w in warnings)
+
+
+# --------------------------------------------------------------------------- bad input (issue 14)
+
+
+def test_truncated_dicom_is_refused(tmp_path):
+    path = write_dicom(tmp_path / "a.dcm", pattern((64, 64)))
+    data = path.read_bytes()
+    path.write_bytes(data[:-100])  # the file lost its last 100 bytes (50 pixels)
+    with pytest.raises(ImageLoadError, match=r"pixel data holds 8092 bytes, but Rows x Columns x "
+                       r"NumberOfFrames x BitsAllocated = 64 x 64 x 1 x 16 bits needs 8192"):
+        load_image(path)
+
+
+def test_header_inconsistent_with_the_pixel_data_is_refused(tmp_path):
+    path = write_dicom(tmp_path / "a.dcm", pattern((64, 64)))
+    import pydicom
+
+    ds = pydicom.dcmread(path)
+    ds.Rows = 65
+    ds.save_as(path)
+    with pytest.raises(ImageLoadError, match="65 x 64 x 1 x 16 bits needs 8320"):
+        load_image(path)
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("PixelSpacing", ["abc", "0.5"], "PixelSpacing = .*: must be 2 finite number"),
+    ("PixelSpacing", [0.0, 0.5], "PixelSpacing = .*: must be positive"),
+    ("ImagePositionPatient", ["1", "x", "3"], "ImagePositionPatient = .*: must be 3 finite number"),
+    ("ImageOrientationPatient", [1, 0, 0, 0, 1], "ImageOrientationPatient = .*: must be 6 finite"),
+])
+def test_non_numeric_geometry_is_one_clear_error(tmp_path, field, value, message):
+    import pydicom
+    from pydicom.dataelem import DataElement
+
+    path = write_dicom(tmp_path / "a.dcm", pattern())
+    ds = pydicom.dcmread(path)
+    tag = ds.data_element(field).tag
+    ds[tag] = DataElement(tag, "LO", "\\".join(str(v) for v in value))  # bypass DS validation
+    ds.save_as(path)
+    with pytest.raises(ImageLoadError, match=message):
+        load_image(path)
+
+
+def test_huge_pixel_values_end_in_an_error_naming_the_stage(tmp_path):
+    from mri.errors import MeasurementError
+    from mri.roi import parse_roi
+    from mri.snr import measure_pair
+
+    rng = np.random.default_rng(0)
+    a = 1e305 * (1 + 0.1 * rng.random((1, 32, 32)))
+    b = 1e305 * (1 + 0.1 * rng.random((1, 32, 32)))
+    for method, roi in (("nema", "central-box:10"), ("thesis", "whole")):
+        with pytest.raises(MeasurementError, match="overflow float64") as info:
+            measure_pair(a, b, None, {method: (parse_roi(roi),)})
+        assert "noise of ROI" in str(info.value) or "sum" in str(info.value)
