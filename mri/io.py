@@ -148,6 +148,27 @@ def _check_pixel_length(ds, path: Path) -> None:
         )
 
 
+def _native_pixels(ds, path: Path):
+    """Pixels of little-endian native data read straight from the buffer (what pydicom's
+    ``pixel_array`` decodes, without its overhead), after the length check; None for other
+    encodings (pydicom decodes them)."""
+    _check_pixel_length(ds, path)
+    syntax = ds.file_meta.get("TransferSyntaxUID", "1.2.840.10008.1.2")
+    bits = int(ds.BitsAllocated)
+    if syntax not in NATIVE_TRANSFER_SYNTAXES[:2] or bits not in (8, 16, 32):
+        return None
+    signed = int(ds.get("PixelRepresentation", 0)) == 1
+    stored = int(ds.get("BitsStored", bits))
+    frames = int(ds.get("NumberOfFrames", 1) or 1)
+    dtype = np.dtype(f"<{'i' if signed else 'u'}{bits // 8}")
+    count = int(ds.Rows) * int(ds.Columns) * frames
+    pixels = np.frombuffer(ds.PixelData, dtype=dtype, count=count).reshape(frames, int(ds.Rows), int(ds.Columns))
+    if stored < bits:  # keep the stored bits only; sign-extend signed values
+        shift = bits - stored
+        pixels = (pixels << shift) >> shift if signed else pixels & ((1 << stored) - 1)
+    return pixels if frames > 1 else pixels[0]
+
+
 def _numbers(ds, keyword: str, count: int, path, frame: int = 0) -> tuple[float, ...] | None:
     """A multi-valued DICOM number (PixelSpacing, ImagePositionPatient, ...) as ``count``
     finite floats, None when absent; an error naming it otherwise."""
@@ -174,9 +195,9 @@ def _dicom_frames(ds, path: Path) -> np.ndarray:
             f"{path}: colour DICOM ({ds.get('PhotometricInterpretation')}); "
             "MR magnitude images must be greyscale"
         )
-    _check_pixel_length(ds, path)
+    raw = _native_pixels(ds, path)
     try:
-        raw = ds.pixel_array
+        raw = ds.pixel_array if raw is None else raw
     except Exception as exc:  # pydicom raises many types for unsupported encodings
         raise ImageLoadError(f"{path}: cannot decode DICOM pixel data ({exc})") from None
     frames = as_pixels(raw, str(path))

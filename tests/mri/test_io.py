@@ -362,3 +362,23 @@ def test_huge_pixel_values_end_in_an_error_naming_the_stage(tmp_path):
         with pytest.raises(MeasurementError, match="overflow float64") as info:
             measure_pair(a, b, None, {method: (parse_roi(roi),)})
         assert "noise of ROI" in str(info.value) or "sum" in str(info.value)
+
+
+@pytest.mark.parametrize("signed, stored", [(0, 16), (0, 12), (1, 16), (1, 12)])
+def test_native_pixel_reader_equals_pydicom(tmp_path, signed, stored):
+    """The fast reader of native little-endian pixels gives pydicom's pixel_array exactly."""
+    import pydicom
+
+    from mri.io import _native_pixels
+
+    rng = np.random.default_rng(stored + signed)
+    lo, hi = (-(2 ** (stored - 1)), 2 ** (stored - 1)) if signed else (0, 2**stored)
+    values = rng.integers(lo, hi, (2, 16, 24))
+    path = write_dicom(tmp_path / "a.dcm", np.zeros((2, 16, 24)))
+    ds = pydicom.dcmread(path)
+    ds.PixelRepresentation, ds.BitsStored, ds.HighBit = signed, stored, stored - 1
+    ds.PixelData = values.astype(np.int16 if signed else np.uint16).tobytes()
+    ds.save_as(path)
+    ds = pydicom.dcmread(path)
+    np.testing.assert_array_equal(_native_pixels(ds, path), ds.pixel_array)
+    np.testing.assert_array_equal(_native_pixels(ds, path), values)

@@ -108,3 +108,13 @@ def test_fill_holes_and_largest_component_match_scipy():
         labels, _ = ndimage.label(blob)
         sizes = ndimage.sum(blob, labels, range(1, labels.max() + 1))
         np.testing.assert_array_equal(largest_component(blob), labels == 1 + int(np.argmax(sizes)))
+
+
+def test_large_slices_are_searched_at_half_resolution_with_the_same_centre():
+    # 512 x 512 (binned 2 x 2 for speed): the centre stays within the 0.6 px tolerance.
+    truth = phantom(shape=(512, 512), centre=(250.3, 260.7), radius=190.0, **CASES["everything"] |
+                    dict(inserts=((250, 260, 30, 0.02),), notch=(30, 40, 50), chord_depth=20))
+    a, _ = noisy_pair(truth, 60.0, seed=8)
+    mask, fit = find_phantom(a)
+    assert mask.shape == a.shape and fit.shape == "circle"
+    assert np.hypot(fit.centre_px[0] - 250.3, fit.centre_px[1] - 260.7) < 0.6
