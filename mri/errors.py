@@ -19,3 +19,13 @@ class RoiError(MriError):
 
 class MeasurementError(MriError):
     """A measure that is undefined for the data (e.g. zero noise between identical images)."""
+
+
+class BoxOutsidePhantomError(RoiError):
+    """Automatic boxes that leave the phantom; ``rois`` are all the boxes (to draw them) and
+    ``fit`` the phantom found (:class:`mri.phantom.PhantomFit`)."""
+
+    def __init__(self, message: str, rois=(), fit=None):
+        super().__init__(message)
+        self.rois = rois
+        self.fit = fit

@@ -24,10 +24,17 @@ DICOM_ACQUISITION_FIELDS = {
     "averages": ("NumberOfAverages",),
     "field_strength_t": ("MagneticFieldStrength",),
     "sequence": ("ScanningSequence", "PulseSequenceName"),
+    "phase_steps": ("NumberOfPhaseEncodingSteps",),
+    "acquisition_matrix": ("AcquisitionMatrix",),
 }
 
 #: Descriptive DICOM fields that may differ between the images of a pair with only a warning.
 DICOM_DESCRIPTIVE_FIELDS = {"receive_coil": ("ReceiveCoilName",)}
+
+#: Transfer syntaxes whose pixel data is stored uncompressed (implicit/explicit VR, little/big
+#: endian, deflated): their length is checked against the header.
+NATIVE_TRANSFER_SYNTAXES = ("1.2.840.10008.1.2", "1.2.840.10008.1.2.1", "1.2.840.10008.1.2.2",
+                            "1.2.840.10008.1.2.1.99")
 
 _TIFF_SUFFIXES = (".tif", ".tiff")
 _PNG_SUFFIXES = (".png",)
@@ -64,11 +71,6 @@ def _read_dicom(path: Path):
         return None
     except (OSError, ValueError, EOFError) as exc:  # truncated or corrupt file
         raise ImageLoadError(f"{path}: unreadable DICOM file ({exc})") from None
-
-
-def _or_default(value, default: float) -> float:
-    """A DICOM number, or the default when the attribute is absent (not when it is 0)."""
-    return default if value is None else float(value)
 
 
 def _lookup(ds, keyword: str, frame: int = 0):
@@ -113,6 +115,76 @@ def _plain(value):
         return str(value)
 
 
+def _header_int(ds, keyword: str, path: Path, default=None) -> int:
+    """A DICOM integer attribute, an error naming it when absent or not a positive integer."""
+    value = ds.get(keyword, default)
+    try:
+        number = int(value)
+    except (TypeError, ValueError):
+        number = 0
+    if number < 1 or number > 2**31:
+        raise ImageLoadError(f"{path}: {keyword} = {value!r}: must be a positive whole number")
+    return number
+
+
+def _check_pixel_length(ds, path: Path) -> None:
+    """Refuse truncated or inconsistent native pixel data: its length must hold rows x
+    columns x frames x samples pixels of BitsAllocated bits (compressed data is checked by
+    its decoder)."""
+    if ds.file_meta.get("TransferSyntaxUID", "1.2.840.10008.1.2") not in NATIVE_TRANSFER_SYNTAXES:
+        return
+    rows, cols = _header_int(ds, "Rows", path), _header_int(ds, "Columns", path)
+    frames = _header_int(ds, "NumberOfFrames", path, 1)
+    bits = _header_int(ds, "BitsAllocated", path)
+    if bits not in (1, 8, 16, 32, 64):
+        raise ImageLoadError(f"{path}: BitsAllocated = {bits}: must be 1, 8, 16, 32 or 64")
+    expected = (rows * cols * frames * bits + 7) // 8
+    found = len(ds.PixelData)
+    if found < expected or found > expected + 1:  # one pad byte makes an odd length even
+        raise ImageLoadError(
+            f"{path}: pixel data holds {found} bytes, but Rows x Columns x NumberOfFrames x "
+            f"BitsAllocated = {rows} x {cols} x {frames} x {bits} bits needs {expected}; the "
+            "file is truncated or its header is inconsistent"
+        )
+
+
+def _native_pixels(ds, path: Path):
+    """Pixels of little-endian native data read straight from the buffer (what pydicom's
+    ``pixel_array`` decodes, without its overhead), after the length check; None for other
+    encodings (pydicom decodes them)."""
+    _check_pixel_length(ds, path)
+    syntax = ds.file_meta.get("TransferSyntaxUID", "1.2.840.10008.1.2")
+    bits = int(ds.BitsAllocated)
+    if syntax not in NATIVE_TRANSFER_SYNTAXES[:2] or bits not in (8, 16, 32):
+        return None
+    signed = int(ds.get("PixelRepresentation", 0)) == 1
+    stored = int(ds.get("BitsStored", bits))
+    frames = int(ds.get("NumberOfFrames", 1) or 1)
+    dtype = np.dtype(f"<{'i' if signed else 'u'}{bits // 8}")
+    count = int(ds.Rows) * int(ds.Columns) * frames
+    pixels = np.frombuffer(ds.PixelData, dtype=dtype, count=count).reshape(frames, int(ds.Rows), int(ds.Columns))
+    if stored < bits:  # keep the stored bits only; sign-extend signed values
+        shift = bits - stored
+        pixels = (pixels << shift) >> shift if signed else pixels & ((1 << stored) - 1)
+    return pixels if frames > 1 else pixels[0]
+
+
+def _numbers(ds, keyword: str, count: int, path, frame: int = 0) -> tuple[float, ...] | None:
+    """A multi-valued DICOM number (PixelSpacing, ImagePositionPatient, ...) as ``count``
+    finite floats, None when absent; an error naming it otherwise."""
+    value = _lookup(ds, keyword, frame)
+    if value in (None, ""):
+        return None
+    values = [value] if isinstance(value, (str, bytes, int, float)) else list(value)
+    try:
+        numbers = tuple(float(v) for v in values)
+    except (TypeError, ValueError):
+        numbers = ()
+    if len(numbers) != count or not all(np.isfinite(numbers)):
+        raise ImageLoadError(f"{path}: {keyword} = {value!r}: must be {count} finite number(s)")
+    return numbers
+
+
 def _dicom_frames(ds, path: Path) -> np.ndarray:
     """Pixels of one DICOM dataset as floats (frames, rows, cols) with the rescale applied."""
     if "PixelData" not in ds:
@@ -123,32 +195,40 @@ def _dicom_frames(ds, path: Path) -> np.ndarray:
             f"{path}: colour DICOM ({ds.get('PhotometricInterpretation')}); "
             "MR magnitude images must be greyscale"
         )
+    raw = _native_pixels(ds, path)
     try:
-        raw = ds.pixel_array
+        raw = ds.pixel_array if raw is None else raw
     except Exception as exc:  # pydicom raises many types for unsupported encodings
         raise ImageLoadError(f"{path}: cannot decode DICOM pixel data ({exc})") from None
     frames = as_pixels(raw, str(path))
-    slopes = [_or_default(_lookup(ds, "RescaleSlope", k), 1.0) for k in range(frames.shape[0])]
-    intercepts = [_or_default(_lookup(ds, "RescaleIntercept", k), 0.0) for k in range(frames.shape[0])]
+    slopes = [(_numbers(ds, "RescaleSlope", 1, path, k) or (1.0,))[0] for k in range(frames.shape[0])]
+    intercepts = [(_numbers(ds, "RescaleIntercept", 1, path, k) or (0.0,))[0]
+                  for k in range(frames.shape[0])]
     if any(s == 0.0 for s in slopes):
         raise ImageLoadError(f"{path}: RescaleSlope = 0 would erase the image")
     if any(s != 1.0 for s in slopes) or any(i != 0.0 for i in intercepts):
         frames = frames * np.array(slopes)[:, None, None] + np.array(intercepts)[:, None, None]
+        if not np.isfinite(frames).all():
+            raise ImageLoadError(f"{path}: RescaleSlope/RescaleIntercept make pixel values "
+                                 "overflow; pixels must be finite")
     return frames
 
 
 def _dicom_image(ds, pixels: np.ndarray, source: str) -> MriImage:
     """Build an :class:`MriImage` from one dataset's metadata (the first slice's) and pixels."""
-    spacing = _lookup(ds, "PixelSpacing")
-    thickness = _lookup(ds, "SliceThickness")
-    orientation = _lookup(ds, "ImageOrientationPatient")
-    position = _lookup(ds, "ImagePositionPatient")
+    path = Path(source)
+    spacing = _numbers(ds, "PixelSpacing", 2, path)
+    if spacing is not None and min(spacing) <= 0:
+        raise ImageLoadError(f"{path}: PixelSpacing = {spacing}: must be positive")
+    thickness = _numbers(ds, "SliceThickness", 1, path)
+    orientation = _numbers(ds, "ImageOrientationPatient", 6, path)
+    position = _numbers(ds, "ImagePositionPatient", 3, path)
     scanner = " ".join(
         str(v)
         for v in (ds.get("Manufacturer"), ds.get("ManufacturerModelName"))
         if v not in (None, "")
     )
-    series_number = ds.get("SeriesNumber")
+    series_number = _numbers(ds, "SeriesNumber", 1, path)
     acquisition = {
         name: _plain(_first(ds, keywords)) for name, keywords in DICOM_ACQUISITION_FIELDS.items()
     }
@@ -159,12 +239,12 @@ def _dicom_image(ds, pixels: np.ndarray, source: str) -> MriImage:
         pixels=pixels,
         source=source,
         format="dicom",
-        pixel_spacing_mm=tuple(float(v) for v in spacing) if spacing else None,
-        slice_thickness_mm=float(thickness) if thickness not in (None, "") else None,
-        orientation=tuple(float(v) for v in orientation) if orientation else None,
-        position_mm=tuple(float(v) for v in position) if position else None,
+        pixel_spacing_mm=spacing,
+        slice_thickness_mm=thickness[0] if thickness else None,
+        orientation=orientation,
+        position_mm=position,
         series=str(ds.get("SeriesDescription") or "") or None,
-        series_number=int(series_number) if series_number not in (None, "") else None,
+        series_number=int(series_number[0]) if series_number else None,
         scanner=scanner or None,
         acquisition={k: v for k, v in acquisition.items() if v is not None},
     )
@@ -181,15 +261,16 @@ def load_dicom_file(path) -> MriImage:
     return _dicom_image(ds, _dicom_frames(ds, p), str(p))
 
 
-def _slice_key(ds) -> tuple[float, float]:
+def _slice_key(ds, path: Path) -> tuple[float, float]:
     """Sort key of a series file: position along the slice normal, then instance number."""
-    orientation = _lookup(ds, "ImageOrientationPatient")
-    position = _lookup(ds, "ImagePositionPatient")
+    orientation = _numbers(ds, "ImageOrientationPatient", 6, path)
+    position = _numbers(ds, "ImagePositionPatient", 3, path)
     along = 0.0
     if orientation and position:
-        cosines = np.array([float(v) for v in orientation])
-        along = float(np.dot(np.cross(cosines[:3], cosines[3:]), [float(v) for v in position]))
-    return along, float(ds.get("InstanceNumber") or 0)
+        cosines = np.array(orientation)
+        along = float(np.dot(np.cross(cosines[:3], cosines[3:]), position))
+    instance = _numbers(ds, "InstanceNumber", 1, path)
+    return along, instance[0] if instance else 0.0
 
 
 def load_dicom_series(folder) -> MriImage:
@@ -212,7 +293,7 @@ def load_dicom_series(folder) -> MriImage:
             f"{root}: folder holds {len(series)} DICOM series; give a folder with one series "
             "or a single file"
         )
-    datasets.sort(key=lambda item: _slice_key(item[1]))
+    datasets.sort(key=lambda item: _slice_key(item[1], item[0]))
     stacks = [_dicom_frames(ds, f) for f, ds in datasets]
     shapes = {s.shape[1:] for s in stacks}
     if len(shapes) > 1:
@@ -225,8 +306,40 @@ def load_dicom_series(folder) -> MriImage:
 # --------------------------------------------------------------------------- other formats
 
 
+#: RAS (NIfTI) to LPS (DICOM) patient coordinates.
+_RAS_TO_LPS = np.diag([-1.0, -1.0, 1.0])
+
+
+def display_orientation(affine: np.ndarray, shape: tuple[int, ...]) -> tuple[tuple[bool, ...], np.ndarray]:
+    """Which voxel axes (i, j[, k]) to flip so that a NIfTI image is stored as a DICOM viewer
+    shows it, and the LPS affine (3 x 4, mm) after the flips.
+
+    In-plane, columns (i) and rows (j) must run toward patient left, posterior or inferior,
+    whichever their direction is closest to (DICOM's display: radiological, head up);
+    slices (k) must run along the normal cross(i, j), the order of a sorted DICOM series.
+    The same voxels stored in any flipped order (e.g. dcm2niix's flipped rows) give the same
+    pixels, so no result depends on storage order.
+    """
+    lps = np.column_stack([_RAS_TO_LPS @ affine[:3, :3], _RAS_TO_LPS @ affine[:3, 3]])
+    target = np.array([1.0, 1.0, -1.0])  # +L, +P, -S (toward inferior)
+    flips = []
+    for axis in range(2):
+        direction = lps[:, axis]
+        dominant = int(np.argmax(np.abs(direction)))
+        flips.append(bool(direction[dominant] * target[dominant] < 0))
+    if len(shape) == 3:
+        u, v = (lps[:, a] * (-1 if f else 1) for a, f in enumerate(flips))
+        flips.append(bool(np.dot(np.cross(u, v), lps[:, 2]) < 0))
+    for axis, flip in enumerate(flips):
+        if flip:
+            lps[:, 3] += lps[:, axis] * (shape[axis] - 1)
+            lps[:, axis] *= -1
+    return tuple(flips), lps
+
+
 def load_nifti(path) -> MriImage:
-    """A NIfTI-1/2 image or volume (scaled); axes (i, j, k) become (slices=k, rows=j, cols=i)."""
+    """A NIfTI-1/2 image or volume (scaled), shown as a DICOM viewer would: axes (i, j, k)
+    become (slices=k, rows=j, cols=i), each flipped as :func:`display_orientation` says."""
     import nibabel
 
     p = Path(path)
@@ -242,11 +355,15 @@ def load_nifti(path) -> MriImage:
             f"{p}: NIfTI image of shape {data.shape}; expected 2-D or 3-D (extract one volume "
             "of a time series first)"
         )
+    if not np.all(np.isfinite(img.affine)) or abs(np.linalg.det(img.affine[:3, :3])) == 0:
+        raise ImageLoadError(f"{p}: the NIfTI affine is singular or not finite; the file "
+                             "carries no usable orientation")
     zooms = [float(z) for z in img.header.get_zooms()[: data.ndim]]
+    flips, lps = display_orientation(img.affine, data.shape)
+    data = np.flip(data, [axis for axis, flip in enumerate(flips) if flip])
     pixels = as_pixels(np.transpose(data), str(p))
-    affine = img.affine
-    row_dir = affine[:3, 0] / np.linalg.norm(affine[:3, 0])
-    col_dir = affine[:3, 1] / np.linalg.norm(affine[:3, 1])
+    row_dir = lps[:, 0] / np.linalg.norm(lps[:, 0])
+    col_dir = lps[:, 1] / np.linalg.norm(lps[:, 1])
     return MriImage(
         pixels=pixels,
         source=str(p),
@@ -254,7 +371,7 @@ def load_nifti(path) -> MriImage:
         pixel_spacing_mm=(zooms[1], zooms[0]),
         slice_thickness_mm=zooms[2] if data.ndim == 3 else None,
         orientation=tuple(float(v) for v in np.concatenate([row_dir, col_dir])),
-        position_mm=tuple(float(v) for v in affine[:3, 3]),
+        position_mm=tuple(float(v) for v in lps[:, 3]),
     )
 
 

@@ -7,13 +7,19 @@ ROI texts (sizes are pixels, or millimetres with an ``mm`` suffix; boxes are zer
 ``central-box:SIZE[:WIDTH]``       box centred on the image, SIZE x SIZE (or SIZE x WIDTH)
 ``central-circle:DIAMETER``        disc centred on the image
 ``mask:PATH``                      non-zero pixels of an image file of the same size
-``phantom[:EROSION]``              automatic phantom mask (Otsu threshold, largest component,
-                                   holes filled, eroded by EROSION, default 5 px)
-``nema5[:SIZE[:OFFSET]]``          five SIZE boxes (default 20 px) on the phantom centre (centroid
-                                   of the largest above-threshold region) and at (+-OFFSET,
-                                   +-OFFSET) from it (default 40 px), as MRI QA tools (hazen,
-                                   McCann et al. 2013) place them for NEMA MS 1; every box must lie
-                                   inside the phantom
+``phantom[:EROSION]``              automatic phantom mask (:func:`mri.phantom.phantom_mask`:
+                                   shading-robust threshold, largest region, holes filled),
+                                   eroded by EROSION, default 5 px
+``nema5[:SIZE[:OFFSET]]``          five SIZE boxes (default 20 px) on the phantom centre (fitted
+                                   circle or rectangle of the outline, :mod:`mri.phantom`) and
+                                   at (+-OFFSET, +-OFFSET) from it (default 40 px), as MRI QA
+                                   tools (hazen, McCann et al. 2013) place them for NEMA MS 1;
+                                   every box must lie inside the phantom (holes filled), else
+                                   :class:`BoxOutsidePhantomError` carries the boxes to draw
+``corners[:SIZE]``                 four SIZE boxes (default 1/8 of the image) in the image
+                                   corners, CORNER_INSET_PX from the edges: the air ROIs of the
+                                   background method; each must stay BACKGROUND_MARGIN_PX clear
+                                   of the phantom
 """
 
 from __future__ import annotations
@@ -24,12 +30,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from mri.errors import RoiError
+from mri.errors import BoxOutsidePhantomError, RoiError
+from mri.phantom import find_phantom, phantom_mask
 
 #: Default erosion of the automatic phantom mask (pixels) and NEMA box layout (pixels).
 PHANTOM_EROSION_PX = 5
 NEMA5_SIZE_PX = 20
 NEMA5_OFFSET_PX = 40
+#: Corner boxes: distance from the image edges, and the clearance kept from the phantom (px).
+CORNER_INSET_PX = 2
+BACKGROUND_MARGIN_PX = 3
 
 _LENGTH = re.compile(r"^(\d+(?:\.\d+)?)(mm|px)?$")
 
@@ -111,8 +121,8 @@ def parse_roi(text: str, mask_loader=None) -> RoiSpec:
         if height < 1 or width < 1:
             raise RoiError(f"ROI {text!r}: HEIGHT and WIDTH must be at least 1 pixel")
         return RoiSpec(text, kind, box=(row, col, height, width))
-    if kind in ("central-box", "central-circle", "phantom", "nema5"):
-        most = {"central-box": 2, "central-circle": 1, "phantom": 1, "nema5": 2}[kind]
+    if kind in ("central-box", "central-circle", "phantom", "nema5", "corners"):
+        most = {"central-box": 2, "central-circle": 1, "phantom": 1, "nema5": 2, "corners": 1}[kind]
         least = 1 if kind.startswith("central") else 0
         if not least <= len(args) <= most:
             raise RoiError(f"ROI {text!r}: {kind} takes {least} to {most} size(s); see --help")
@@ -123,71 +133,12 @@ def parse_roi(text: str, mask_loader=None) -> RoiSpec:
         return RoiSpec(text, kind, mask=np.asarray(mask_loader(rest)) != 0)
     raise RoiError(
         f"ROI {text!r} not understood; use whole, box:ROW:COL:HEIGHT:WIDTH, central-box:SIZE, "
-        "central-circle:DIAMETER, mask:PATH, phantom[:EROSION] or nema5[:SIZE[:OFFSET]]"
+        "central-circle:DIAMETER, mask:PATH, phantom[:EROSION], nema5[:SIZE[:OFFSET]] or "
+        "corners[:SIZE]"
     )
 
 
 # --------------------------------------------------------------------------- phantom
-
-
-def otsu_threshold(image: np.ndarray, bins: int = 256) -> float:
-    """Otsu's threshold of ``image`` from a ``bins``-bin histogram over its range.
-
-    Same histogram as ``skimage.filters.threshold_otsu`` (which does the thresholding), built
-    with ``np.bincount`` because that is several times faster than ``np.histogram``.
-    """
-    from skimage.filters import threshold_otsu
-
-    lo, hi = float(image.min()), float(image.max())
-    if hi == lo:
-        raise RoiError("automatic phantom mask: the image is uniform, no phantom to find")
-    width = (hi - lo) / bins
-    index = ((image - lo) * (1.0 / width)).astype(np.int32)
-    np.minimum(index, bins - 1, out=index)  # the maximum falls on the upper edge of the last bin
-    counts = np.bincount(index.ravel(), minlength=bins)
-    return float(threshold_otsu(hist=(counts, lo + (np.arange(bins) + 0.5) * width)))
-
-
-def fill_holes(mask: np.ndarray) -> np.ndarray:
-    """``mask`` with every background region that does not touch the image border filled.
-
-    Only the bounding box of ``mask`` (plus a one-pixel frame) is labelled: a background
-    region inside it that reaches the frame is connected to the outside.
-    """
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
-        return mask.copy()
-    r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
-    labels, count = ndimage.label(~np.pad(mask[r0:r1, c0:c1], 1))
-    outside = np.zeros(count + 1, dtype=bool)
-    outside[labels[0, 0]] = True  # the frame is one connected background region
-    outside[0] = False  # label 0 is the mask itself
-    filled = mask.copy()
-    filled[r0:r1, c0:c1] = ~outside[labels[1:-1, 1:-1]]
-    return filled
-
-
-def centroid(mask: np.ndarray) -> tuple[float, float]:
-    """(row, col) centre of mass of a non-empty boolean mask, from its row and column sums."""
-    row_sums, col_sums = mask.sum(axis=1), mask.sum(axis=0)
-    total = row_sums.sum()
-    return (
-        float(row_sums @ np.arange(mask.shape[0]) / total),
-        float(col_sums @ np.arange(mask.shape[1]) / total),
-    )
-
-
-def largest_component(image: np.ndarray) -> np.ndarray:
-    """The largest connected region of ``image`` above Otsu's threshold (holes not filled)."""
-    labels, _ = ndimage.label(image > otsu_threshold(image))
-    sizes = np.bincount(labels.ravel())
-    sizes[0] = 0
-    return labels == int(np.argmax(sizes))
-
-
-def phantom_mask(image: np.ndarray) -> np.ndarray:
-    """Phantom pixels of a 2-D image: above Otsu's threshold, largest component, holes filled."""
-    return fill_holes(largest_component(image))
 
 
 def _eroded(mask: np.ndarray, radius_px: tuple[float, float]) -> np.ndarray:
@@ -247,39 +198,77 @@ def _central_circle(spec: RoiSpec, shape, spacing) -> Roi:
     return Roi(spec.text, mask)
 
 
-def _nema5(spec: RoiSpec, image: np.ndarray, spacing) -> tuple[Roi, ...]:
+NEMA5_NAMES = ("centre", "upper-left", "lower-left", "upper-right", "lower-right")
+NEMA5_DIRECTIONS = ((0, 0), (-1, -1), (1, -1), (-1, 1), (1, 1))
+
+
+def nema5_boxes(centre_px, size_px, offset_px) -> tuple[tuple[str, tuple[int, int, int, int]], ...]:
+    """The five (name, (row, col, height, width)) boxes centred on ``centre_px`` (row, col,
+    fractional) and on (+-offset rows, +-offset cols) from it. A box of even size is centred
+    on a pixel corner: its first row is round(centre - (size - 1) / 2), so the layout of a
+    flipped image is the flipped layout."""
+    return tuple(
+        (name, (int(round(centre_px[0] + dr * offset_px[0] - (size_px[0] - 1) / 2)),
+                int(round(centre_px[1] + dc * offset_px[1] - (size_px[1] - 1) / 2)),
+                size_px[0], size_px[1]))
+        for name, (dr, dc) in zip(NEMA5_NAMES, NEMA5_DIRECTIONS)
+    )
+
+
+def _nema5(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...]:
     size_l = spec.lengths[0] if spec.lengths else Length(NEMA5_SIZE_PX, "px")
     off_l = spec.lengths[1] if len(spec.lengths) > 1 else Length(NEMA5_OFFSET_PX, "px")
     sr, sc = spacing if spacing else (None, None)
     size = (int(round(size_l.pixels(sr, spec.text))), int(round(size_l.pixels(sc, spec.text))))
-    offset = (int(round(off_l.pixels(sr, spec.text))), int(round(off_l.pixels(sc, spec.text))))
-    # Holes (dark pixels of noise or inserts) are filled only if a box meets one: filling
-    # costs as much as finding the phantom, and a uniform phantom has none.
-    phantom = largest_component(image)
-    centre = np.rint(centroid(phantom)).astype(int)
-    rois = []
-    for name, (dr, dc) in zip(
-        ("centre", "upper-left", "lower-left", "upper-right", "lower-right"),
-        ((0, 0), (-1, -1), (1, -1), (-1, 1), (1, 1)),
-    ):
-        box = (
-            int(centre[0] + dr * offset[0] - size[0] // 2),
-            int(centre[1] + dc * offset[1] - size[1] // 2),
-            size[0],
-            size[1],
-        )
+    offset = (off_l.pixels(sr, spec.text), off_l.pixels(sc, spec.text))
+    phantom, fit = found
+    rois, outside = [], []
+    for name, box in nema5_boxes(fit.centre_px, size, offset):
         label = f"nema5 {name} {_box_label(*box)}"
-        mask = _box_mask(image.shape, *box, label)
-        block = np.s_[box[0] : box[0] + box[2], box[1] : box[1] + box[3]]
-        if not phantom[block].all():
-            phantom = fill_holes(phantom)
-        if not phantom[block].all():
-            raise RoiError(
-                f"ROI {spec.text!r}: the {name} box {_box_label(*box)} reaches outside the phantom "
-                f"(centre row {centre[0]}, column {centre[1]}); use smaller nema5:SIZE:OFFSET "
-                "or explicit boxes"
-            )
+        rows, cols = image.shape
+        if box[0] < 0 or box[1] < 0 or box[0] + box[2] > rows or box[1] + box[3] > cols:
+            outside.append(name)
+            mask = np.zeros(image.shape, dtype=bool)
+            mask[max(box[0], 0):max(box[0] + box[2], 0), max(box[1], 0):max(box[1] + box[3], 0)] = True
+        else:
+            mask = _box_mask(image.shape, *box, label)
+            if not phantom[box[0] : box[0] + box[2], box[1] : box[1] + box[3]].all():
+                outside.append(name)
         rois.append(Roi(label, mask, box))
+    if outside:
+        centre = ", ".join(f"{v:.1f}" for v in fit.centre_px)
+        raise BoxOutsidePhantomError(
+            f"ROI {spec.text!r}: the {', '.join(outside)} box(es) reach outside the phantom "
+            f"({fit.shape} centre row, col {centre}, found at threshold {fit.threshold:.4g}); "
+            "use smaller nema5:SIZE:OFFSET or explicit boxes",
+            tuple(rois), fit,
+        )
+    return tuple(rois)
+
+
+def _corners(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...]:
+    rows, cols = image.shape
+    size_l = spec.lengths[0] if spec.lengths else Length(min(rows, cols) // 8, "px")
+    sr, sc = spacing if spacing else (None, None)
+    size = (int(round(size_l.pixels(sr, spec.text))), int(round(size_l.pixels(sc, spec.text))))
+    inset = CORNER_INSET_PX
+    if size[0] + inset > rows // 2 or size[1] + inset > cols // 2:
+        raise RoiError(f"ROI {spec.text!r}: corner boxes of {size[0]} x {size[1]} px do not fit "
+                       f"the {rows} x {cols} image")
+    near = ndimage.binary_dilation(found[0], iterations=BACKGROUND_MARGIN_PX)
+    rois = []
+    for name, row, col in (("upper-left", inset, inset), ("upper-right", inset, cols - inset - size[1]),
+                           ("lower-left", rows - inset - size[0], inset),
+                           ("lower-right", rows - inset - size[0], cols - inset - size[1])):
+        box = (row, col, size[0], size[1])
+        label = f"corners {name} {_box_label(*box)}"
+        if near[row : row + size[0], col : col + size[1]].any():
+            raise RoiError(
+                f"ROI {spec.text!r}: the {name} corner box {_box_label(*box)} comes within "
+                f"{BACKGROUND_MARGIN_PX} px of the phantom; give smaller corners:SIZE or "
+                "explicit background boxes"
+            )
+        rois.append(Roi(label, _box_mask(image.shape, *box, label), box))
     return tuple(rois)
 
 
@@ -293,13 +282,17 @@ def _mask_roi(spec: RoiSpec, shape, slice_index: int) -> Roi:
     return Roi(spec.text, mask[0] if mask.shape[0] == 1 else mask[slice_index])
 
 
-def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0) -> tuple[Roi, ...]:
+def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0,
+                found=None) -> tuple[Roi, ...]:
     """The pixel mask(s) of ``spec`` on the 2-D ``image`` (slice ``slice_index`` of its volume).
 
-    ``spacing`` is (row, col) in mm or None. ROIs with fewer than two pixels, or reaching outside
-    the image, raise :class:`RoiError`.
+    ``spacing`` is (row, col) in mm or None; ``found`` is :func:`mri.phantom.find_phantom` of
+    ``image`` when the caller has it (found here otherwise). ROIs with fewer than two pixels,
+    or reaching outside the image, raise :class:`RoiError`.
     """
     shape = image.shape
+    if found is None and spec.kind in ("nema5", "corners"):
+        found = find_phantom(image)
     if spec.kind == "whole":
         rois = (Roi("whole", np.ones(shape, dtype=bool), (0, 0, *shape)),)
     elif spec.kind == "box":
@@ -314,9 +307,12 @@ def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0)
             erosion.pixels(spacing[0] if spacing else None, spec.text),
             erosion.pixels(spacing[1] if spacing else None, spec.text),
         )
-        rois = (Roi(spec.text, _eroded(phantom_mask(image), radius)),)
+        mask = found[0] if found is not None else phantom_mask(image)
+        rois = (Roi(spec.text, _eroded(mask, radius)),)
     elif spec.kind == "nema5":
-        rois = _nema5(spec, image, spacing)
+        rois = _nema5(spec, image, spacing, found)
+    elif spec.kind == "corners":
+        rois = _corners(spec, image, spacing, found)
     else:
         rois = (_mask_roi(spec, shape, slice_index),)
     for roi in rois:

@@ -1,18 +1,29 @@
-"""SNR and image difference from a pair of repeated MR acquisitions (thesis Appendix C).
+"""SNR and image difference of MR acquisitions (thesis Appendix C, NEMA MS 1, McCann et al. 2013).
 
-Both methods estimate the noise sigma of ONE image from the difference V = a - b, whose noise
+Pair methods estimate the noise sigma of ONE image from the difference V = a - b, whose noise
 variance is twice that of a single image when a and b are independent repeats:
 
-* thesis (eqs 91-93): SD^2 = sum (V(i, j+1) - V(i, j))^2 / (2 n (m - 1)) over the n (m - 1)
+* ``thesis`` (eqs 91-93): SD^2 = sum (V(i, j+1) - V(i, j))^2 / (2 n (m - 1)) over the n (m - 1)
   horizontal neighbour pairs of the ROI (DESIGN section 12 corrects eq 91's denominator);
   Noise = SD / sqrt(2); SNR = S / Noise with S the mean of a. Neighbour differences cancel
   anything smooth left in V (drift, slight misregistration of smooth regions).
-* NEMA MS 1 subtraction: Noise = std(V in ROI) / sqrt(2); Signal = mean(a in ROI).
+* ``nema`` (NEMA MS 1 subtraction): Noise = std(V in ROI) / sqrt(2); Signal = mean(a in ROI).
 
-With several ROIs (e.g. ``nema5``) the slice's SNR is the mean of the ROI SNRs, as hazen and
-the MATLAB scripts of McCann et al. (2013) do; signal and noise are the ROI means.
+Single-image methods measure one image (each image of a pair separately):
 
-Magnitude images have Rician, not Gaussian, noise: both methods overestimate a low SNR, by
+* ``smoothed`` (McCann et al. 2013, the method of hazen's ``snr`` task): the image minus its
+  K x K boxcar mean (K = 9 px for a head coil, 25 for a body coil) is a noise image; Noise =
+  its std in the ROI, as published (no correction: for white noise it reads sigma
+  sqrt(1 - 1/K^2), 0.62 % low at K = 9); Signal = mean of the image in the ROI.
+* ``background`` (NEMA MS 1 single-image method): Noise = std of the air in background ROIs
+  (default: four corner boxes clear of the phantom) / 0.655, the Rayleigh factor: magnitude
+  noise in air has std sqrt(2 - pi/2) sigma = 0.655 sigma. It assumes one receive channel (or
+  an equivalent); sum-of-squares array images and parallel imaging break it.
+
+With several signal ROIs (e.g. ``nema5``) a slice's SNR is the mean of the ROI SNRs, as hazen
+and the MATLAB scripts of McCann et al. do; signal and noise are the ROI means.
+
+Magnitude images have Rician, not Gaussian, noise: every method overestimates a low SNR, by
 1 % at SNR 8.7, 3 % at 5 and 24 % at 2 (see :func:`magnitude_snr`).
 """
 
@@ -22,13 +33,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mri.errors import MeasurementError
-from mri.roi import Roi, RoiSpec, resolve_roi
+from mri.errors import MeasurementError, RoiError
+from mri.roi import Roi, RoiSpec, parse_roi, resolve_roi
 
-METHODS = ("thesis", "nema")
+PAIR_METHODS = ("thesis", "nema")
+SINGLE_METHODS = ("smoothed", "background")
+METHODS = PAIR_METHODS + SINGLE_METHODS
 
-#: ROIs each method uses when none are given: the thesis' whole image, NEMA's five boxes.
-DEFAULT_ROIS = {"thesis": "whole", "nema": "nema5"}
+#: Signal ROIs each method uses when none are given: the thesis' whole image, five boxes
+#: for the others; the background method's noise ROIs.
+DEFAULT_ROIS = {"thesis": "whole", "nema": "nema5", "smoothed": "nema5", "background": "nema5"}
+DEFAULT_BACKGROUND_ROI = "corners"
+
+#: Boxcar of the smoothed-subtraction method (McCann et al. 2013: 9 px head coil, 25 body coil).
+SMOOTHING_KERNEL_PX = 9
+
+#: NEMA MS 1: std of magnitude noise in air over the channel sigma, sqrt(2 - pi/2) = 0.6551.
+RAYLEIGH_FACTOR = 0.655
 
 #: Reported SNR below which the Rician bias of magnitude images exceeds about 1 %
 #: (magnitude_snr(s) / s = 1.01 at s = 8.7).
@@ -37,7 +58,8 @@ RICIAN_BIAS_SNR = 9.0
 
 @dataclass(frozen=True)
 class RoiMeasure:
-    """One ROI: ``signal`` mean of a, ``noise`` single-image sigma (pixel units), ``snr``."""
+    """One signal ROI: ``signal`` mean of the image, ``noise`` single-image sigma (pixel
+    units), ``snr``."""
 
     roi: str
     n_pixels: int
@@ -48,30 +70,39 @@ class RoiMeasure:
 
 @dataclass(frozen=True)
 class MethodResult:
-    """One method on one slice: per-ROI measures and their means."""
+    """One method on one slice of one image ("a", "b") or of the pair ("a-b"): per-ROI
+    measures and their means; ``noise_rois`` labels the background method's air ROIs."""
 
     method: str
+    image: str
     rois: tuple[RoiMeasure, ...]
     signal: float
     noise: float
     snr: float
+    noise_rois: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
 class SliceResult:
     """One slice: each method's result and the thesis difference, with its totals sum |a - b|
-    and sum a (pixel units) from which a volume's difference is summed."""
+    and sum a (pixel units) from which a volume's difference is summed (None without b). A
+    slice of a volume whose ROIs cannot be placed (no phantom, a box outside it) has no
+    methods and says why in ``skipped``; it is left out of the summaries (its difference is
+    None when sum a <= 0)."""
 
     index: int
-    difference_percent: float
+    difference_percent: float | None
     methods: tuple[MethodResult, ...]
-    sum_abs_difference: float
+    sum_abs_difference: float | None
     sum_a: float
+    skipped: str = ""
 
 
 @dataclass(frozen=True)
 class MethodSummary:
-    """One method over all slices: mean, minimum and maximum SNR, mean signal and noise."""
+    """One method over all measured slices (and both images for a single-image method):
+    mean, minimum and maximum SNR, mean signal and noise, and the normalised SNR (SNR x the
+    factor of :func:`mri.normalise.normalisation_factor`) when the headers allow it."""
 
     method: str
     snr: float
@@ -79,15 +110,18 @@ class MethodSummary:
     snr_max: float
     signal: float
     noise: float
+    snr_normalised: float | None = None
 
 
 @dataclass(frozen=True)
 class PairResult:
-    """A measured pair: per-slice results, per-method summaries, total difference (percent)."""
+    """Measured images: per-slice results, per-method summaries, total difference (percent;
+    None for a single image) and the normalisation factor used (None if unknown)."""
 
     slices: tuple[SliceResult, ...]
     summaries: tuple[MethodSummary, ...]
-    difference_percent: float
+    difference_percent: float | None
+    normalisation_factor: float | None = None
 
     def summary(self, method: str) -> MethodSummary:
         return next(s for s in self.summaries if s.method == method)
@@ -125,7 +159,28 @@ def nema_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     return float(np.std(values, ddof=1) / np.sqrt(2.0))
 
 
-_NOISE = {"thesis": thesis_noise, "nema": nema_noise}
+def smoothed_noise_image(image: np.ndarray, kernel_px: int = SMOOTHING_KERNEL_PX) -> np.ndarray:
+    """McCann et al. (2013): ``image`` minus its ``kernel_px`` square boxcar mean (edges
+    reflected), the noise image of the smoothed-subtraction method."""
+    from scipy import ndimage
+
+    return image - ndimage.uniform_filter(image, kernel_px, mode="reflect")
+
+
+def smoothed_noise(noise_image: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """Std (ddof 1) of a :func:`smoothed_noise_image` in the ROI: the noise, as published."""
+    values = noise_image if mask is None else noise_image[mask]
+    if values.size < 2:
+        raise MeasurementError(f"smoothed method: the ROI holds {values.size} pixel(s); a "
+                               "standard deviation needs at least 2")
+    return float(np.std(values, ddof=1))
+
+
+def background_noise(image: np.ndarray, rois: tuple[Roi, ...]) -> float:
+    """NEMA MS 1 single-image noise: the RMS of the air ROIs' std (ddof 1), over the
+    Rayleigh factor 0.655."""
+    stds = [np.std(roi.pixels(image), ddof=1) for roi in rois]
+    return float(np.sqrt(np.mean(np.square(stds))) / RAYLEIGH_FACTOR)
 
 
 def _percent(sum_abs_difference: float, sum_a: float) -> float:
@@ -157,89 +212,184 @@ def _sums(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 # --------------------------------------------------------------------------- measures
 
 
-def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
-    """Signal, noise and SNR of one ROI on one slice (eq 93: SNR = S / Noise)."""
-    if roi.box is None:
-        noise = _NOISE[method](diff, roi.mask)
-    else:  # a rectangle: measure on the block itself, no mask needed
-        noise = _NOISE[method](roi.pixels(diff))
-    if noise == 0.0:
+def _finite(value: float, stage: str) -> float:
+    """``value``, or an error naming the stage that overflowed (pixels near 1e154 or more
+    overflow float64 when squared)."""
+    if not np.isfinite(value):
+        raise MeasurementError(f"{stage} is {value}: the pixel values overflow float64 "
+                               "arithmetic; scale the images down")
+    return value
+
+
+def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure:
+    _finite(noise, f"the noise of ROI {roi.label!r}")
+    if not noise > 0.0:
         raise MeasurementError(
-            f"zero noise in ROI {roi.label!r}: images a and b are identical there, SNR is undefined"
+            f"zero noise in ROI {roi.label!r}: the noise image is constant there "
+            "(identical images a and b, or a synthetic image), SNR is undefined"
         )
-    signal = float(np.mean(roi.pixels(a)))
-    return RoiMeasure(roi.label, roi.n_pixels, signal, noise, signal / noise)
+    signal = _finite(float(np.mean(roi.pixels(signal_image))), f"the signal of ROI {roi.label!r}")
+    return RoiMeasure(roi.label, roi.n_pixels, signal, noise,
+                      _finite(signal / noise, f"the SNR of ROI {roi.label!r}"))
 
 
-def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
-    """One method on one slice over several ROIs: mean SNR, signal and noise of the ROIs."""
-    if method not in _NOISE:
-        raise MeasurementError(f"method {method!r} unknown; use one of {', '.join(METHODS)}")
-    measures = tuple(measure_roi(a, diff, roi, method) for roi in rois)
+def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
+    """Signal, noise and SNR of one ROI by a pair method (eq 93: SNR = S / Noise)."""
+    noise_fn = {"thesis": thesis_noise, "nema": nema_noise}[method]
+    # a rectangle is measured on the block itself, no mask needed
+    noise = noise_fn(diff, roi.mask) if roi.box is None else noise_fn(roi.pixels(diff))
+    return _roi_measure(roi, a, noise)
+
+
+def _method_result(method, image, measures, noise_rois=()) -> MethodResult:
     return MethodResult(
-        method,
-        measures,
+        method, image, tuple(measures),
         signal=float(np.mean([m.signal for m in measures])),
         noise=float(np.mean([m.noise for m in measures])),
         snr=float(np.mean([m.snr for m in measures])),
+        noise_rois=tuple(noise_rois),
     )
+
+
+def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
+    """A pair method on one slice over several ROIs: mean SNR, signal and noise of the ROIs."""
+    if method not in PAIR_METHODS:
+        raise MeasurementError(f"method {method!r} is not a pair method; use one of "
+                               f"{', '.join(PAIR_METHODS)}")
+    return _method_result(method, "a-b", [measure_roi(a, diff, roi, method) for roi in rois])
+
+
+def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: str,
+                   background_rois: tuple[Roi, ...] = (),
+                   kernel_px: int = SMOOTHING_KERNEL_PX) -> MethodResult:
+    """A single-image method (``smoothed`` or ``background``) on one slice of image ``name``."""
+    if method == "smoothed":
+        noise_image = smoothed_noise_image(image, kernel_px)
+        measures = [_roi_measure(roi, image, smoothed_noise(roi.pixels(noise_image)))
+                    for roi in rois]
+        return _method_result(method, name, measures)
+    if method == "background":
+        if not background_rois:
+            raise MeasurementError("background method: no background (air) ROI given")
+        noise = background_noise(image, background_rois)
+        return _method_result(method, name, [_roi_measure(roi, image, noise) for roi in rois],
+                              [roi.label for roi in background_rois])
+    raise MeasurementError(f"method {method!r} is not a single-image method; use one of "
+                           f"{', '.join(SINGLE_METHODS)}")
 
 
 def measure_slice(
-    index: int, a: np.ndarray, b: np.ndarray, rois_by_method: dict[str, tuple[Roi, ...]]
+    index: int, a: np.ndarray, b: np.ndarray | None, rois_by_method: dict[str, tuple[Roi, ...]],
+    background_rois: tuple[Roi, ...] = (), kernel_px: int = SMOOTHING_KERNEL_PX,
 ) -> SliceResult:
-    """All requested methods on one 2-D float64 slice pair; ``rois_by_method``: method -> ROIs."""
-    diff = a - b
-    sum_abs_difference, sum_a = float(np.sum(np.abs(diff))), float(np.sum(a))
-    return SliceResult(
-        index,
-        _percent(sum_abs_difference, sum_a),
-        tuple(measure_method(a, diff, rois, m) for m, rois in rois_by_method.items()),
-        sum_abs_difference,
-        sum_a,
-    )
+    """All requested methods on one 2-D float64 slice (pair, or a alone when ``b`` is None);
+    ``rois_by_method``: method -> signal ROIs."""
+    diff = None if b is None else a - b
+    results = []
+    for method, rois in rois_by_method.items():
+        if method in PAIR_METHODS:
+            if diff is None:
+                raise MeasurementError(f"method {method!r} needs a pair of images a and b; "
+                                       f"one image takes {' or '.join(SINGLE_METHODS)}")
+            results.append(measure_method(a, diff, rois, method))
+        else:
+            for name, image in (("a", a), ("b", b)):
+                if image is not None:
+                    results.append(measure_single(image, name, rois, method, background_rois, kernel_px))
+    if diff is None:
+        return SliceResult(index, None, tuple(results), None, float(np.sum(a)))
+    sum_abs_difference = _finite(float(np.sum(np.abs(diff))), f"slice {index}: sum |a - b|")
+    sum_a = _finite(float(np.sum(a)), f"slice {index}: sum a")
+    return SliceResult(index, _percent(sum_abs_difference, sum_a), tuple(results),
+                       sum_abs_difference, sum_a)
 
 
-def summarise(slices: tuple[SliceResult, ...]) -> PairResult:
-    """Per-method summaries over slices and the total difference of the whole volume."""
+def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | None = None) -> PairResult:
+    """Per-method summaries over the measured slices (both images for a single-image method)
+    and the total difference of the whole volume (every slice); an error when no slice was
+    measured. ``normalisation_factor`` (see :mod:`mri.normalise`) gives ``snr_normalised``."""
+    measured = [s for s in slices if not s.skipped]
+    if not measured:
+        reasons = "; ".join(f"slice {s.index}: {s.skipped}" for s in slices[:3])
+        raise MeasurementError(f"no slice of the {len(slices)} could be measured ({reasons}"
+                               f"{'; ...' if len(slices) > 3 else ''})")
     summaries = []
-    for k, result in enumerate(slices[0].methods):
-        per_slice = [s.methods[k] for s in slices]
-        snrs = [m.snr for m in per_slice]
+    for method in dict.fromkeys(m.method for m in measured[0].methods):
+        results = [m for s in measured for m in s.methods if m.method == method]
+        snrs = [m.snr for m in results]
+        mean = float(np.mean(snrs))
         summaries.append(
             MethodSummary(
-                result.method,
-                snr=float(np.mean(snrs)),
+                method,
+                snr=mean,
                 snr_min=float(np.min(snrs)),
                 snr_max=float(np.max(snrs)),
-                signal=float(np.mean([m.signal for m in per_slice])),
-                noise=float(np.mean([m.noise for m in per_slice])),
+                signal=float(np.mean([m.signal for m in results])),
+                noise=float(np.mean([m.noise for m in results])),
+                snr_normalised=None if normalisation_factor is None else mean * normalisation_factor,
             )
         )
-    total = _percent(sum(s.sum_abs_difference for s in slices), sum(s.sum_a for s in slices))
-    return PairResult(slices, tuple(summaries), total)
+    if slices[0].sum_abs_difference is None:
+        total = None
+    else:
+        total = _finite(_percent(sum(s.sum_abs_difference for s in slices),
+                                 sum(s.sum_a for s in slices)), "the total difference")
+    return PairResult(slices, tuple(summaries), total, normalisation_factor)
+
+
+#: ROI kinds that need the phantom found on the slice.
+_PHANTOM_KINDS = ("phantom", "nema5", "corners")
 
 
 def measure_pair(
-    a: np.ndarray, b: np.ndarray, spacing_mm, specs_by_method: dict[str, tuple[RoiSpec, ...]]
+    a: np.ndarray, b: np.ndarray | None, spacing_mm, specs_by_method: dict[str, tuple[RoiSpec, ...]],
+    background_specs: tuple[RoiSpec, ...] | None = None, kernel_px: int = SMOOTHING_KERNEL_PX,
+    normalisation_factor: float | None = None,
 ) -> PairResult:
-    """Measure a (slices, rows, cols) pair slice by slice, in float64; ROIs are resolved on each
-    slice of a.
+    """Measure a (slices, rows, cols) pair (or image a alone, ``b`` None) slice by slice, in
+    float64; ROIs are resolved on each slice of a, and the phantom is found once per slice.
 
-    ``spacing_mm`` is (row, col) in mm or None; ``specs_by_method`` maps each method to measure
-    to its ROI specs.
+    ``spacing_mm`` is (row, col) in mm or None; ``specs_by_method`` maps each method to its
+    signal ROI specs; ``background_specs`` are the background method's air ROIs (default
+    ``corners``). A single slice whose ROIs or measures fail raises; in a volume such a slice
+    is skipped with its reason (:class:`SliceResult`) and the others are measured.
     """
-    if a.shape != b.shape:
+    if b is not None and a.shape != b.shape:
         raise MeasurementError(f"pair shapes differ: {a.shape} and {b.shape}")
-    slices = []
-    for k in range(a.shape[0]):
-        a_k, b_k = a[k].astype(np.float64), b[k].astype(np.float64)
-        rois = {
-            method: tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k))
-            for method, specs in specs_by_method.items()
-        }
-        slices.append(measure_slice(k, a_k, b_k, rois))
-    return summarise(tuple(slices))
+    if background_specs is None:
+        background_specs = (parse_roi(DEFAULT_BACKGROUND_ROI),) if "background" in specs_by_method else ()
+    all_specs = [spec for specs in specs_by_method.values() for spec in specs] + list(background_specs)
+    needs_phantom = any(spec.kind in _PHANTOM_KINDS for spec in all_specs)
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked, not warned
+        slices = [_measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs,
+                                         kernel_px, needs_phantom) for k in range(a.shape[0])]
+    return summarise(tuple(slices), normalisation_factor)
+
+
+def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs, kernel_px,
+                           needs_phantom) -> SliceResult:
+    """Slice ``k`` measured, or (in a volume) skipped with the reason its ROIs or measures
+    failed."""
+    from mri.phantom import find_phantom
+
+    a_k = a[k].astype(np.float64)
+    b_k = None if b is None else b[k].astype(np.float64)
+    try:
+        found = find_phantom(a_k) if needs_phantom else None
+
+        def resolve(specs):
+            return tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k, found))
+
+        rois = {method: resolve(specs) for method, specs in specs_by_method.items()}
+        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px)
+    except (RoiError, MeasurementError) as exc:
+        if a.shape[0] == 1:
+            raise
+        if b_k is None:
+            return SliceResult(k, None, (), None, float(np.sum(a_k)), skipped=str(exc))
+        diff_sum, a_sum = _sums(a_k, b_k)
+        return SliceResult(k, 100.0 * diff_sum / a_sum if a_sum > 0 else None,
+                           (), diff_sum, a_sum, skipped=str(exc))
 
 
 def magnitude_snr(true_snr: float) -> float:

@@ -40,7 +40,8 @@ def run(capsys, *args):
 def test_text_output_lists_both_methods_and_difference(capsys, files):
     status, out, err = run(capsys, files["a1"], files["a2"])
     assert status == 0 and err == ""
-    assert "thesis  whole" in out and "nema    mean of 5 ROIs" in out
+    assert "thesis     a-b   whole" in out and "nema       a-b   mean of 5 ROIs" in out
+    assert "normalised SNR: not computed, the header lacks pixel_row_mm" in out  # NPY: no header
     assert "difference sum|a-b| / sum a:" in out
 
 
@@ -64,7 +65,7 @@ def test_volume_prints_per_slice_and_summary(capsys, tmp_path):
     np.save(tmp_path / "vb.npy", phantom(10, 2, slices=3))
     status, out, _ = run(capsys, tmp_path / "va.npy", tmp_path / "vb.npy", "--method", "thesis")
     assert status == 0
-    assert "thesis over 3 slices: SNR mean" in out
+    assert "thesis over 3 of 3 slices: SNR mean" in out
     assert sum(line.strip().startswith(("0 ", "1 ", "2 ")) for line in out.splitlines()) == 3
 
 
@@ -111,18 +112,31 @@ def _bad_inputs(tmp_path, files):
     nan = base.copy()
     nan[5, 5] = np.nan
     np.save(tmp_path / "nan.npy", nan)
+    np.save(tmp_path / "huge_a.npy", 1e305 * (1 + 0.01 * phantom(10, 1)[0]))
+    np.save(tmp_path / "huge_b.npy", 1e305 * (1 + 0.01 * phantom(10, 2)[0]))
     (tmp_path / "empty").mkdir()
     (tmp_path / "empty" / "x.txt").write_text("no images")
     return {
         "mismatched shapes": ([files["a1"], tmp_path / "other_shape.npy"], "shapes differ"),
         "folder with no images": ([tmp_path / "empty", files["a1"]], "no DICOM image"),
         "NaN pixels": ([files["a1"], tmp_path / "nan.npy"], "NaN"),
+        "values near 1e305": ([tmp_path / "huge_a.npy", tmp_path / "huge_b.npy"], "overflow float64"),
         "identical images": ([files["a1"], files["a1"]], "zero noise"),
         "ROI outside": ([files["a1"], files["a2"], "--roi", "box:250:250:20:20"], "outside"),
         "empty ROI": ([files["a1"], files["a2"], "--roi", "central-circle:1"], "holds 0 pixel"),
         "bad ROI text": ([files["a1"], files["a2"], "--roi", "box:1:2"], "ROW:COL"),
         "mm without spacing": ([files["a1"], files["a2"], "--roi", "central-box:20mm"], "in mm"),
-        "one image": ([files["a1"]], "expected two images"),
+        "pair method on one image": ([files["a1"], "--method", "nema"], "needs two images"),
+        "three images": ([files["a1"], files["a2"], files["b1"]], "expected one image A or a pair"),
+        "figure not an image": ([files["a1"], files["a2"], "--figure", tmp_path / "f.txt"],
+                                "must end in .png"),
+        "bad acquisition override": ([files["a1"], files["a2"], "--acquisition", "averages"],
+                                     "expected FIELD=NUMBER"),
+        "unknown acquisition field": ([files["a1"], files["a2"], "--acquisition", "tr=3"],
+                                      "normalisation field 'tr' unknown"),
+        "negative override": ([files["a1"], files["a2"], "--acquisition", "averages=-1"],
+                              "averages = -1.0: must be a positive finite number"),
+        "kernel": ([files["a1"], "--kernel", "1"], "kernel_px = 1"),
         "condition without reference": (
             [files["a1"], files["a2"], "--condition", "x", files["b1"], files["b2"]],
             "needs --reference",
@@ -138,8 +152,10 @@ def _bad_inputs(tmp_path, files):
 
 @pytest.mark.parametrize(
     "case",
-    ["mismatched shapes", "folder with no images", "NaN pixels", "identical images", "ROI outside",
-     "empty ROI", "bad ROI text", "mm without spacing", "one image", "condition without reference",
+    ["mismatched shapes", "folder with no images", "NaN pixels", "values near 1e305", "identical images", "ROI outside",
+     "empty ROI", "bad ROI text", "mm without spacing", "pair method on one image", "three images",
+     "figure not an image", "bad acquisition override", "unknown acquisition field",
+     "negative override", "kernel", "condition without reference",
      "reference without condition", "missing file", "figure slice", "figure folder"],
 )
 def test_bad_input_exits_2_with_one_line(capsys, tmp_path, files, case):
@@ -149,7 +165,7 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path, files, case):
     assert out == ""
     assert err.startswith("dacm snr: error: ") and err.count("\n") == 1
     assert message in err
-    assert not (tmp_path / "f.png").exists()
+    assert not (tmp_path / "f.png").exists() and not (tmp_path / "f.txt").exists()
 
 
 def test_mask_file_roi(capsys, files, tmp_path):

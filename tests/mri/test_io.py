@@ -178,13 +178,50 @@ def test_nifti_volume_axes_and_spacing(tmp_path):
     nibabel.save(nibabel.Nifti1Image(data, np.diag([0.8, 1.2, 4.0, 1.0])), tmp_path / "v.nii.gz")
     img = load_image(tmp_path / "v.nii.gz")
     assert img.shape == (3, 6, 8)
-    np.testing.assert_array_equal(img.pixels[2], data[:, :, 2].T)
+    # identity affine (RAS): i runs to the right and j to anterior; shown as DICOM shows it,
+    # columns run to the patient's left and rows to posterior, so both are flipped
+    np.testing.assert_array_equal(img.pixels[2], data[::-1, ::-1, 2].T)
+    assert img.orientation == (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)  # LPS, as DICOM
+    assert img.position_mm == pytest.approx((-7 * 0.8, -5 * 1.2, 0.0))
     # the header stores float32 zooms: 1.2 comes back as 1.2000000477
     assert img.pixel_spacing_mm == pytest.approx((1.2, 0.8), rel=1e-7)
     assert img.slice_thickness_mm == 4.0
     nibabel.save(nibabel.Nifti1Image(data, np.diag([0.8, 1.0, 4.0, 1.0])), tmp_path / "w.nii")
     with pytest.raises(PairMismatchError, match="pixel spacing"):
         check_pair(img, load_image(tmp_path / "w.nii"))
+
+
+def test_nifti_result_does_not_depend_on_storage_order(tmp_path):
+    """The same axial slab stored as DICOM does (rows to posterior) and as dcm2niix does
+    (rows flipped, affine adjusted): identical pixels, geometry and SNR."""
+    import nibabel
+
+    from mri.roi import parse_roi
+    from mri.snr import measure_pair
+    from tests.mri.phantoms import noisy_pair, phantom
+
+    a, b = noisy_pair(phantom(shading=("linear", 0.4), chord_depth=10), 20.0, seed=2)
+    spacing, thickness = 0.9765625, 5.0
+    # voxel (i=col, j=row): x = -col (LPS +L is RAS -x), y = -row (+P is RAS -y)
+    dicom_like = np.array([[-spacing, 0, 0, 100.0], [0, -spacing, 0, 120.0],
+                           [0, 0, thickness, -10.0], [0, 0, 0, 1]])
+    flipped = dicom_like.copy()
+    flipped[:3, 3] += flipped[:3, 1] * (a.shape[0] - 1)
+    flipped[:3, 1] *= -1
+    results = []
+    for name, affine, rows in (("dicom", dicom_like, slice(None)), ("dcm2niix", flipped, slice(None, None, -1))):
+        images = []
+        for tag, pixels in (("a", a), ("b", b)):
+            path = tmp_path / f"{name}-{tag}.nii.gz"
+            nibabel.save(nibabel.Nifti1Image(pixels[rows].T[:, :, None].astype(np.float32), affine), path)
+            images.append(load_image(path))
+        np.testing.assert_array_equal(images[0].pixels[0], a.astype(np.float32))
+        result = measure_pair(images[0].pixels, images[1].pixels, images[0].pixel_spacing_mm,
+                              {"nema": (parse_roi("nema5"),), "thesis": (parse_roi("whole"),)})
+        results.append((images[0].orientation, images[0].position_mm,
+                        [s.snr for s in result.summaries]))
+    assert results[0][0] == pytest.approx(results[1][0]) and results[0][1] == pytest.approx(results[1][1])
+    assert results[0][2] == results[1][2]
 
 
 def test_png_tiff_npy_round_trip(tmp_path):
@@ -269,3 +306,79 @@ def test_shape_mismatch_and_spacing_known_for_one_image(tmp_path):
         check_pair(load_image(tmp_path / "a.npy"), load_image(tmp_path / "small.npy"))
     warnings = check_pair(a, load_image(tmp_path / "a.npy"))
     assert any(w.startswith("pixel spacing (mm) known only for a") for w in warnings)
+
+
+# --------------------------------------------------------------------------- bad input (issue 14)
+
+
+def test_truncated_dicom_is_refused(tmp_path):
+    path = write_dicom(tmp_path / "a.dcm", pattern((64, 64)))
+    data = path.read_bytes()
+    path.write_bytes(data[:-100])  # the file lost its last 100 bytes (50 pixels)
+    with pytest.raises(ImageLoadError, match=r"pixel data holds 8092 bytes, but Rows x Columns x "
+                       r"NumberOfFrames x BitsAllocated = 64 x 64 x 1 x 16 bits needs 8192"):
+        load_image(path)
+
+
+def test_header_inconsistent_with_the_pixel_data_is_refused(tmp_path):
+    path = write_dicom(tmp_path / "a.dcm", pattern((64, 64)))
+    import pydicom
+
+    ds = pydicom.dcmread(path)
+    ds.Rows = 65
+    ds.save_as(path)
+    with pytest.raises(ImageLoadError, match="65 x 64 x 1 x 16 bits needs 8320"):
+        load_image(path)
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("PixelSpacing", ["abc", "0.5"], "PixelSpacing = .*: must be 2 finite number"),
+    ("PixelSpacing", [0.0, 0.5], "PixelSpacing = .*: must be positive"),
+    ("ImagePositionPatient", ["1", "x", "3"], "ImagePositionPatient = .*: must be 3 finite number"),
+    ("ImageOrientationPatient", [1, 0, 0, 0, 1], "ImageOrientationPatient = .*: must be 6 finite"),
+])
+def test_non_numeric_geometry_is_one_clear_error(tmp_path, field, value, message):
+    import pydicom
+    from pydicom.dataelem import DataElement
+
+    path = write_dicom(tmp_path / "a.dcm", pattern())
+    ds = pydicom.dcmread(path)
+    tag = ds.data_element(field).tag
+    ds[tag] = DataElement(tag, "LO", "\\".join(str(v) for v in value))  # bypass DS validation
+    ds.save_as(path)
+    with pytest.raises(ImageLoadError, match=message):
+        load_image(path)
+
+
+def test_huge_pixel_values_end_in_an_error_naming_the_stage(tmp_path):
+    from mri.errors import MeasurementError
+    from mri.roi import parse_roi
+    from mri.snr import measure_pair
+
+    rng = np.random.default_rng(0)
+    a = 1e305 * (1 + 0.1 * rng.random((1, 32, 32)))
+    b = 1e305 * (1 + 0.1 * rng.random((1, 32, 32)))
+    for method, roi in (("nema", "central-box:10"), ("thesis", "whole")):
+        with pytest.raises(MeasurementError, match="overflow float64") as info:
+            measure_pair(a, b, None, {method: (parse_roi(roi),)})
+        assert "noise of ROI" in str(info.value) or "sum" in str(info.value)
+
+
+@pytest.mark.parametrize("signed, stored", [(0, 16), (0, 12), (1, 16), (1, 12)])
+def test_native_pixel_reader_equals_pydicom(tmp_path, signed, stored):
+    """The fast reader of native little-endian pixels gives pydicom's pixel_array exactly."""
+    import pydicom
+
+    from mri.io import _native_pixels
+
+    rng = np.random.default_rng(stored + signed)
+    lo, hi = (-(2 ** (stored - 1)), 2 ** (stored - 1)) if signed else (0, 2**stored)
+    values = rng.integers(lo, hi, (2, 16, 24))
+    path = write_dicom(tmp_path / "a.dcm", np.zeros((2, 16, 24)))
+    ds = pydicom.dcmread(path)
+    ds.PixelRepresentation, ds.BitsStored, ds.HighBit = signed, stored, stored - 1
+    ds.PixelData = values.astype(np.int16 if signed else np.uint16).tobytes()
+    ds.save_as(path)
+    ds = pydicom.dcmread(path)
+    np.testing.assert_array_equal(_native_pixels(ds, path), ds.pixel_array)
+    np.testing.assert_array_equal(_native_pixels(ds, path), values)

@@ -251,3 +251,27 @@ def test_nema_noise_needs_two_pixels():
     mask[1, 1] = True
     with pytest.raises(MriError, match="1 pixel"):
         nema_noise(np.ones((4, 4)), mask)
+
+
+def test_volume_slice_whose_boxes_leave_the_phantom_is_skipped_with_its_reason():
+    # An 11-slice series: slice 4 has a dark insert under the centre box (measured: the box is
+    # inside the phantom), slice 7 a notch under the upper-right box and slice 10 is empty
+    # (past the phantom): both are skipped with their reason, the 9 others are measured.
+    from tests.mri.phantoms import noisy_pair, phantom
+
+    truths = [phantom() for _ in range(11)]
+    truths[4] = phantom(inserts=((121, 133, 15, 0.02),))
+    truths[7] = phantom(notch=(45, 50, 40))
+    truths[10] = np.zeros_like(truths[0])
+    pairs = [noisy_pair(t, 10.0, seed=k) for k, t in enumerate(truths)]
+    a, b = np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
+    result = measure_pair(a, b, None, {"nema": specs("nema5")})
+    skipped = {s.index: s.skipped for s in result.slices if s.skipped}
+    assert sorted(skipped) == [7, 10]
+    assert "upper-right box" in skipped[7] and "outside the phantom" in skipped[7]
+    assert "no phantom found" in skipped[10]  # noise above the threshold spans the image
+    assert result.slices[7].methods == () and result.slices[4].methods[0].snr > 50
+    measured = [s.methods[0].snr for s in result.slices if not s.skipped]
+    assert len(measured) == 9 and result.summary("nema").snr == pytest.approx(np.mean(measured))
+    with pytest.raises(MeasurementError, match="no slice of the 2 could be measured"):
+        measure_pair(a[[7, 10]], b[[7, 10]], None, {"nema": specs("nema5")})

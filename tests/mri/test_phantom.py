@@ -1,0 +1,120 @@
+"""Phantom detection against synthetic phantoms of known centre (shaded, notched, with a flat
+air bubble, with inserts, rectangles) and against the centre hazen pins for the real pair.
+
+Tolerance: 0.6 px on the centre. The outline is found to the pixel and a circle fit over
+~700 outline points averages that quantisation down; partial-volume edge pixels under strong
+shading move the outline by up to ~0.3 px on the dark side (the threshold is a fixed
+fraction of the bright level), and a rectangle's sides are medians of whole pixels (+-0.5 px).
+The naive method (Otsu mask, holes filled, centroid) is run on the same images to show that
+the cases are hard: it misses by 2-8 px.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from mri.errors import BoxOutsidePhantomError
+from mri.phantom import fill_holes, find_phantom, largest_component
+from mri.roi import parse_roi, resolve_roi
+from tests.mri.phantoms import noisy_pair, phantom
+
+CENTRE = (121.3, 133.6)
+
+CASES = {
+    "plain": dict(),
+    "linear shading 4:1": dict(shading=("linear", 0.25)),
+    "radial shading, dark centre": dict(shading=("radial", 0.25)),
+    "notch": dict(notch=(180, 25, 30)),
+    "air bubble": dict(chord_depth=12),
+    "dark insert at the centre": dict(inserts=((121, 133, 15, 0.02),)),
+    "bright insert": dict(inserts=((80, 100, 10, 3.0),)),
+    "everything": dict(shading=("radial", 0.25), notch=(30, 20, 25), chord_depth=10,
+                       inserts=((121, 133, 15, 0.02),)),
+    "rectangle": dict(kind="rectangle"),
+    "shaded rectangle": dict(kind="rectangle", shading=("linear", 0.3)),
+}
+#: Cases where the naive centroid of an Otsu mask misses the centre by more than 2 px.
+HARD = ("linear shading 4:1", "notch", "air bubble", "everything", "shaded rectangle")
+
+
+def naive_centre(image):
+    from skimage.filters import threshold_otsu
+
+    return ndimage.center_of_mass(ndimage.binary_fill_holes(image > threshold_otsu(image)))
+
+
+@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("sigma", [20.0, 80.0])
+def test_centre_of_shaded_notched_and_insert_phantoms(case, sigma):
+    a, _ = noisy_pair(phantom(centre=CENTRE, **CASES[case]), sigma, seed=7)
+    _, fit = find_phantom(a)
+    assert fit.shape == ("rectangle" if "rectangle" in case else "circle")
+    assert np.hypot(*np.subtract(fit.centre_px, CENTRE)) < 0.6, fit
+    if case in HARD:
+        assert np.hypot(*np.subtract(naive_centre(a), CENTRE)) > 2.0
+
+
+def test_radius_and_half_sizes():
+    a, _ = noisy_pair(phantom(centre=CENTRE, radius=95.0), 20.0, seed=1)
+    assert find_phantom(a)[1].size_px[0] == pytest.approx(95.0, abs=0.5)
+    a, _ = noisy_pair(phantom(centre=CENTRE, kind="rectangle", half_size=(70.0, 100.0)), 20.0, seed=1)
+    np.testing.assert_allclose(find_phantom(a)[1].size_px, (70.0, 100.0), atol=0.6)
+
+
+def test_nema5_boxes_are_measured_on_a_dark_centre_and_an_insert():
+    # Centre at 25 % of the edge brightness (a receive array), a dark insert under the centre
+    # box, a notch and an air bubble: every box lies inside the phantom, so none is refused.
+    a, _ = noisy_pair(phantom(centre=CENTRE, **CASES["everything"]), 100.0, seed=3)
+    rois = resolve_roi(parse_roi("nema5"), a, None)
+    assert rois[0].label == "nema5 centre box:112:124:20:20"  # round(121.3 - 9.5), round(133.6 - 9.5)
+    assert [r.n_pixels for r in rois] == [400] * 5
+
+
+def test_a_box_that_truly_leaves_the_phantom_is_refused_with_the_boxes_to_draw():
+    a, _ = noisy_pair(phantom(centre=CENTRE, radius=45.0), 20.0, seed=4)
+    with pytest.raises(BoxOutsidePhantomError, match="upper-left, lower-left, upper-right, "
+                       "lower-right box") as info:
+        resolve_roi(parse_roi("nema5"), a, None)
+    assert len(info.value.rois) == 5 and info.value.fit.shape == "circle"
+    # the same boxes fit once they are brought in
+    assert len(resolve_roi(parse_roi("nema5:20:20"), a, None)) == 5
+
+
+def test_a_box_over_a_notch_is_refused():
+    # A notch cut 30 px into the upper right: the upper-right box (rows 72-91, cols 164-183)
+    # falls into the air of the notch.
+    a, _ = noisy_pair(phantom(centre=CENTRE, notch=(45, 50, 40)), 20.0, seed=5)
+    with pytest.raises(BoxOutsidePhantomError, match="the upper-right box"):
+        resolve_roi(parse_roi("nema5"), a, None)
+
+
+def test_flipped_image_gives_the_flipped_layout():
+    a, _ = noisy_pair(phantom(centre=CENTRE, **CASES["everything"]), 20.0, seed=6)
+    boxes = [r.box for r in resolve_roi(parse_roi("nema5"), a, None)]
+    flipped = [r.box for r in resolve_roi(parse_roi("nema5"), a[::-1], None)]
+    rows = a.shape[0]
+    assert sorted(flipped) == sorted((rows - r - h, c, h, w) for r, c, h, w in boxes)
+
+
+def test_fill_holes_and_largest_component_match_scipy():
+    # fill_holes labels only the bounding box (faster); it must equal scipy's fill.
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        blob = np.zeros((60, 70), dtype=bool)
+        blob[5:50, 10:60] = rng.random((45, 50)) > 0.3
+        np.testing.assert_array_equal(fill_holes(blob), ndimage.binary_fill_holes(blob))
+        labels, _ = ndimage.label(blob)
+        sizes = ndimage.sum(blob, labels, range(1, labels.max() + 1))
+        np.testing.assert_array_equal(largest_component(blob), labels == 1 + int(np.argmax(sizes)))
+
+
+def test_large_slices_are_searched_at_half_resolution_with_the_same_centre():
+    # 512 x 512 (binned 2 x 2 for speed): the centre stays within the 0.6 px tolerance.
+    truth = phantom(shape=(512, 512), centre=(250.3, 260.7), radius=190.0, **CASES["everything"] |
+                    dict(inserts=((250, 260, 30, 0.02),), notch=(30, 40, 50), chord_depth=20))
+    a, _ = noisy_pair(truth, 60.0, seed=8)
+    mask, fit = find_phantom(a)
+    assert mask.shape == a.shape and fit.shape == "circle"
+    assert np.hypot(fit.centre_px[0] - 250.3, fit.centre_px[1] - 260.7) < 0.6
