@@ -371,12 +371,11 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     # relaxation factors e = exp(-beta h) and phi = (1 - e) / (beta h) of each element (friction)
     # and tube node (heat transfer), and the sums the steps need, kept in work[s, j] and recomputed
     # only when the local kinematic viscosity has moved by more than NU_TOL since they were computed
-    ef = work[:, :, 0:kk]
-    pf = work[:, :, kk:2 * kk]
-    et = work[:, :, 2 * kk:3 * kk]
-    pt = work[:, :, 3 * kk:4 * kk]
-    cf = work[:, :, 4 * kk:5 * kk]     # (16 nu / D^2) m_i e_i: weight of y_i in the friction drive
-    ch = work[:, :, 5 * kk:6 * kk]     # kappa a_i (e_i - 1): weight of w_i in the node update
+    # (offsets into work[s, j] - indexing the one C-contiguous array, not strided views of it,
+    # lets the compiler vectorise the relaxation loops)
+    ef, pf, et, pt = 0, kk, 2 * kk, 3 * kk
+    cf = 4 * kk                        # (16 nu / D^2) m_i e_i: weight of y_i in the friction drive
+    ch = 5 * kk                        # kappa a_i (e_i - 1): weight of w_i in the node update
     w0 = 6 * kk                        # scalars: nu_f, nu_t, h_f, h_t, thrust, extra, sum a_i phi_i
     for s in range(2):
         op = off[s, O_P]
@@ -390,10 +389,10 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                 extra = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / d2 * h
-                    ef[s, j, i] = math.exp(-bh)
-                    pf[s, j, i] = -math.expm1(-bh) / bh
-                    cf[s, j, i] = c16 * km[i] * ef[s, j, i]
-                    extra += h * c16 * km[i] * pf[s, j, i]
+                    work[s, j, ef + i] = math.exp(-bh)
+                    work[s, j, pf + i] = -math.expm1(-bh) / bh
+                    work[s, j, cf + i] = c16 * km[i] * work[s, j, ef + i]
+                    extra += h * c16 * km[i] * work[s, j, pf + i]
                 work[s, j, w0 + 5] = extra
             nu = mu * rt / x[op + j]
             if abs(nu - work[s, j, w0 + 1]) > NU_TOL * nu or work[s, j, w0 + 3] != h:
@@ -402,10 +401,10 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                 sa = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
-                    et[s, j, i] = math.exp(-bh)
-                    pt[s, j, i] = -math.expm1(-bh) / bh
-                    ch[s, j, i] = kappa * ka[i] * (et[s, j, i] - 1.0)
-                    sa += ka[i] * pt[s, j, i]
+                    work[s, j, et + i] = math.exp(-bh)
+                    work[s, j, pt + i] = -math.expm1(-bh) / bh
+                    work[s, j, ch + i] = kappa * ka[i] * (work[s, j, et + i] - 1.0)
+                    sa += ka[i] * work[s, j, pt + i]
                 work[s, j, w0 + 6] = sa
     cond = np.empty((2, 2))   # (side, supply / exhaust) conductance at this command
     spool = pc[SPOOL_ORDER] > 0.5
@@ -468,13 +467,13 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     if uns:
                         extra = work[s, j, w0 + 5]
                         for i in range(kk):
-                            drive -= cf[s, j, i] * x[oy + j * kk + i]
+                            drive -= work[s, j, cf + i] * x[oy + j * kk + i]
                     mn = (m * (1.0 + extra) + h * drive) / (1.0 + h * fs + extra)
                     x[om + j] = mn
                     if uns:
                         dmn = mn - m
                         for i in range(kk):
-                            x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + dmn * pf[s, j, i]
+                            x[oy + j * kk + i] = x[oy + j * kk + i] * work[s, j, ef + i] + dmn * work[s, j, pf + i]
             for j in range(nn - 1):
                 mach = max(mach, element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2,
                                               area, rt, c2))
@@ -516,11 +515,11 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     if the:
                         acc_w = 0.0
                         for i in range(kk):
-                            acc_w += ch[s, k, i] * x[ow + k * kk + i]
+                            acc_w += work[s, k, ch + i] * x[ow + k * kk + i]
                         rhs_ += cap * acc_w
                         dp = rhs_ / (cap * (1.0 - kappa * work[s, k, w0 + 6]) - h * g)
                         for i in range(kk):
-                            x[ow + k * kk + i] = x[ow + k * kk + i] * et[s, k, i] + dp * pt[s, k, i]
+                            x[ow + k * kk + i] = x[ow + k * kk + i] * work[s, k, et + i] + dp * work[s, k, pt + i]
                     else:
                         dp = rhs_ / (cap - h * g)
                     pn = p + dp
