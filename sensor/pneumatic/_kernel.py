@@ -34,6 +34,8 @@ SP_A00, SP_A01, SP_A10, SP_A11 = 37, 38, 39, 40   # exact spool step matrix (fil
 OX = 41                                # index of the first extra state (chamber masses, spool)
 T_AIR = 42                             # line (and wall) temperature T (K)
 N_COMMON = 43
+N_POLES = 8   # kernel poles per element (unsteady friction, heat transfer); fixed here, in this file,
+              # so that changing it recompiles the cached stepper
 SPOOL_DAMPING = 1.0 / math.sqrt(2.0)   # second-order spool: -3 dB at the natural frequency
 # extra states after both side blocks: x[OX + s] chamber-node gas mass of side s (kg),
 # x[OX + 2] spool position (normalised command), x[OX + 3] its rate (1/s)
@@ -364,7 +366,7 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
     kappa = (gam - 1.0) / gam
     c2 = gam * rt
-    kk = kn.size
+    kk = N_POLES   # kn.size, fixed at compile time so the loops over the poles unroll and vectorise
     ox = int(pc[OX])
     nring = ring.shape[1]
     mass_eff = pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0)
@@ -527,6 +529,29 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                         acc[A_VALVE + s] += h * (mv + g * dp)
                 x[op + k] = pn
     return head, first_bad(x, off, ps, vmax)
+
+
+@njit(cache=True)
+def control_period(k, x, u, nsub, h, dt, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax,
+                   work, p_read, states, valve_flow, chamber_flow, mach, force):
+    """One control period of the fixed-rate loop: :func:`advance` by nsub substeps at command u, then
+    record row k's mean valve and chamber flows (kg/s over dt) and peak Mach numbers, and row k + 1's
+    state and environment force.  Returns (head, first bad state or -1, first side whose peak Mach
+    exceeds ps[s, S_MACH_LIMIT] or -1, piston position, environment force, and the pressures at
+    the state indices p_read) - the values the sensors read next, as plain floats."""
+    for i in range(A_FORCE):
+        acc[i] = 0.0
+    head, bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work)
+    over = -1
+    for s in range(2):
+        valve_flow[k, s] = acc[A_VALVE + s] / dt
+        chamber_flow[k, s] = acc[A_CHAMBER + s] / dt
+        mach[k, s] = acc[A_MACH + s]
+        if over < 0 and acc[A_MACH + s] > ps[s, S_MACH_LIMIT]:
+            over = s
+    states[k + 1] = x
+    force[k + 1] = acc[A_FORCE]
+    return (head, bad, over, x[0], acc[A_FORCE], x[p_read[0]], x[p_read[1]], x[p_read[2]], x[p_read[3]])
 
 
 @njit(cache=True)

@@ -55,7 +55,7 @@ class CompiledPlant:
     def __init__(self, plant: Plant) -> None:
         self.plant = plant
         air, act, env = plant.air, plant.actuator, plant.environment
-        kern = fitted_kernels()
+        kern = fitted_kernels(K.N_POLES)
         self.kn = np.asarray(kern.poles, float)
         self.km = np.asarray(kern.friction_weights, float)
         self.ka = np.asarray(kern.thermal_weights, float)
