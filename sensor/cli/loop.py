@@ -12,6 +12,7 @@ from pathlib import Path
 from sensor.errors import SensorInputError
 
 STUDIES = ("observer", "controllers", "sensor")
+MAX_DURATION_S = 3600.0   # simulated time of one run; the stored samples are bounded again by simulate
 
 
 def register(subparsers) -> None:
@@ -57,7 +58,8 @@ def register(subparsers) -> None:
 
 
 def _setup(args):
-    from sensor.pneumatic.controllers import CONTROLLERS
+    from sensor.pneumatic.controllers import CONTROLLERS, MAX_REFERENCE_N
+    from sensor.pneumatic.lines import MAX_LENGTH_M
     from sensor.pneumatic.cylinder import spring_contact
     from sensor.pneumatic.observer import OBSERVER_KINDS
     from sensor.pneumatic.studies import DacmForceSensor, Setup, sensor_reference, series_spring, settling_duration_s
@@ -66,8 +68,12 @@ def _setup(args):
         raise SensorInputError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")
     if args.observer not in OBSERVER_KINDS:
         raise SensorInputError(f"--observer {args.observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
-    if not (math.isfinite(args.line_length) and args.line_length > 0):
-        raise SensorInputError(f"--line-length {args.line_length!r}: must be a positive finite number (m)")
+    if not (math.isfinite(args.line_length) and 0 < args.line_length <= MAX_LENGTH_M):
+        raise SensorInputError(f"--line-length {args.line_length!r}: must be a positive finite number <= "
+                               f"{MAX_LENGTH_M:g} (m)")
+    for flag, value in (("--amplitude", args.amplitude), ("--offset", args.offset)):
+        if value is not None and not (math.isfinite(value) and abs(value) <= MAX_REFERENCE_N):
+            raise SensorInputError(f"{flag} {value!r}: must be a finite force within +-{MAX_REFERENCE_N:g} N")
     valve = args.valve or ("festo-mpye-5-1/8-lf" if args.controller in ("pi", "impedance") else "enfield-lh05")
     kw, notes, amp, off = {}, [], 24.0, 0.0
     if args.sensor:
@@ -91,10 +97,13 @@ def run(args) -> int:
 
     if args.study is not None and args.study not in STUDIES:
         raise SensorInputError(f"--study {args.study!r}: must be one of {', '.join(STUDIES)}")
-    if args.segments < 1:
-        raise SensorInputError(f"--segments {args.segments!r}: must be an integer >= 1")
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number (s)")
+    from sensor.pneumatic.lines import MAX_LENGTH_M, MAX_SEGMENTS
+
+    if not 1 <= args.segments <= MAX_SEGMENTS:
+        raise SensorInputError(f"--segments {args.segments!r}: must be an integer in [1, {MAX_SEGMENTS}]")
+    if args.duration is not None and not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
+        raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number <= "
+                               f"{MAX_DURATION_S:g} (s)")
     if not args.no_plots or args.study:
         args.out.mkdir(parents=True, exist_ok=True)
     with warnings.catch_warnings(record=True) as caught:

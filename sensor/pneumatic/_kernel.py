@@ -34,6 +34,7 @@ SP_A00, SP_A01, SP_A10, SP_A11 = 37, 38, 39, 40   # exact spool step matrix (fil
 OX = 41                                # index of the first extra state (chamber masses, spool)
 T_AIR = 42                             # line (and wall) temperature T (K)
 N_COMMON = 43
+MAX_PRESSURE_PA = 1e8   # pressures beyond 1000 bar leave the models' range (runaway check)
 N_POLES = 8   # kernel poles per element (unsteady friction, heat transfer); fixed here, in this file,
               # so that changing it recompiles the cached stepper
 SPOOL_DAMPING = 1.0 / math.sqrt(2.0)   # second-order spool: -3 dB at the natural frequency
@@ -591,7 +592,7 @@ def first_bad(x, off, ps, vmax):
     for s in range(2):
         for k in range(int(ps[s, S_NN])):
             p = x[off[s, O_P] + k]
-            if p <= 0.0 or p > 1e8:
+            if p <= 0.0 or p > MAX_PRESSURE_PA:
                 return off[s, O_P] + k
     return -1
 

@@ -23,6 +23,7 @@ MEASUREMENT_KEYS = ("position_m", "velocity_m_s", "acceleration_m_s2", "force_N"
                     "pressure_valve_1_Pa", "pressure_valve_2_Pa",
                     "pressure_chamber_1_Pa", "pressure_chamber_2_Pa")
 MAX_VELOCITY_M_S = 100.0
+MAX_STORED_VALUES = 2e8   # time samples x (states + readings): 1.6 GB of float64 at most
 
 
 def constant_command(u: float) -> Callable[[float, dict], float]:
@@ -49,7 +50,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     if bad >= 0:
         raise SensorInputError(f"simulation stopped at t = 0 s: state {cp.labels[bad]} = {float(x[bad])!r} "
                           "is not finite or outside its physical range")
-    nsteps = int(round(duration_s * rate_Hz))
+    nsteps = run_steps(duration_s, rate_Hz, cp.n_states)
     delays = np.round(cp.delay_s / h).astype(int)
     ps = cp.ps.copy()
     ps[:, K.S_DELAY] = delays
@@ -105,6 +106,21 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
             raise SensorInputError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
                               f"{float(x[bad])!r} is not finite or outside its physical range")
     return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch)
+
+
+def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
+    """Control periods of a run, checked before anything is allocated: at least one, and the
+    stored samples (duration x rate x states) within MAX_STORED_VALUES."""
+    steps = duration_s * rate_Hz
+    if not steps >= 0.5:
+        raise SensorInputError(f"duration {duration_s!r} s at {rate_Hz:g} Hz: must cover at least one control "
+                               f"period ({1.0 / rate_Hz:.3g} s)")
+    values = (steps + 1.0) * (n_states + len(MEASUREMENT_KEYS) + 12)
+    if not values <= MAX_STORED_VALUES:
+        raise SensorInputError(f"duration {duration_s:.4g} s x rate {rate_Hz:g} Hz x {n_states} states stores "
+                               f"{values:.3g} values: must be <= {MAX_STORED_VALUES:.3g} (shorten the duration, "
+                               "lower the rate or use fewer segments)")
+    return round(steps)
 
 
 def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch):

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import xarray as xr
 
-from sensor.errors import CapacityWarning, SensorInputError
+from sensor.errors import CapacityWarning, SensorInputError, SolverError
 from sensor.pneumatic.controllers import (
     CONTROLLERS,
     LINE_MODEL_VARIANTS,
@@ -297,6 +297,10 @@ def metrics(ds: xr.Dataset, reference: Reference) -> dict:
         raise SensorInputError(f"duration {float(t[-1]):.4g} s: too short for the MSE window "
                                f"(a step at {reference.step_s:g} s needs a longer run)")
     out = {key: float(np.nanmean(sq[inside])) for key, sq in errors.items()}
+    for key, value in out.items():
+        if not math.isfinite(value):
+            raise SolverError(f"loop metrics: {key} = {value!r} over the steady window is not finite (the run "
+                              "or the observer overflowed)")
     out["window_s"] = [float(t[inside][0]), float(t[inside][-1])]
     st = settling(ds, reference, errors)
     out["settled"] = st["settled"]
