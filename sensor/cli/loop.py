@@ -120,13 +120,14 @@ def run(args) -> int:
 def _run_one(args) -> dict:
     from geometry.atomic import save_figure
     from sensor.pneumatic.plots import loop_figure
-    from sensor.pneumatic.studies import metrics
+    from sensor.pneumatic.studies import console_progress, metrics
     from sensor.pneumatic.studies import run as run_experiment
 
     setup, notes = _setup(args)
     for note in notes:
         print(f"dacm loop: {note}", file=sys.stderr)
-    ds = run_experiment(setup)
+    with console_progress("loop", args.quiet) as bar:
+        ds = run_experiment(setup, progress=None if bar is None else lambda k, n: bar(k, n, "control periods"))
     m = metrics(ds, setup.ref)
     result = {"controller": setup.controller, "observer": setup.observer, "reference": setup.reference,
               "amplitude_N": setup.amplitude_N, "offset_N": setup.offset_N, "line_length_m": setup.line_length_m,

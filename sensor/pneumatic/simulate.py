@@ -23,6 +23,7 @@ MEASUREMENT_KEYS = ("position_m", "velocity_m_s", "acceleration_m_s2", "force_N"
                     "pressure_valve_1_Pa", "pressure_valve_2_Pa",
                     "pressure_chamber_1_Pa", "pressure_chamber_2_Pa")
 MAX_VELOCITY_M_S = 100.0
+PROGRESS_PERIODS = 1000
 MAX_STORED_VALUES = 2e8   # time samples x (states + readings): 1.6 GB of float64 at most
 
 
@@ -33,8 +34,10 @@ def constant_command(u: float) -> Callable[[float, dict], float]:
 
 def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], float], duration_s: float,
              rate_Hz: float = 1000.0, sensors: Sensors | None = None, initial_state: np.ndarray | None = None,
-             substep_s: float | None = None) -> xr.Dataset:
-    """Run the loop for ``duration_s`` and return every state, command and reading over time."""
+             substep_s: float | None = None, progress: Callable[[int, int], None] | None = None) -> xr.Dataset:
+    """Run the loop for ``duration_s`` and return every state, command and reading over time.
+
+    progress: called as ``progress(done, total)`` (control periods) every PROGRESS_PERIODS and at the end."""
     cp = plant if isinstance(plant, CompiledPlant) else plant.compile()
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise SensorInputError(f"duration_s = {duration_s!r}: must be a positive finite number")
@@ -87,6 +90,8 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
         m = (z, vz, acc_f.update(vz), read_f(raw[1], t), read_v1(raw[2], t), read_v2(raw[3], t),
              read_c1(raw[4], t), read_c2(raw[5], t))
         meas[k] = m
+        if progress is not None and (k % PROGRESS_PERIODS == 0 or k == nsteps):
+            progress(k, nsteps)
         if k == nsteps:
             break
         u = controller(t, dict(zip(MEASUREMENT_KEYS, m)))

@@ -159,3 +159,11 @@ def test_bad_simulation_input(kwargs, word):
 def test_bad_actuator_input(make, word):
     with pytest.raises(SensorError, match=word):
         make()
+
+
+def test_progress_counts_every_control_period_up_to_the_end():
+    cp = Plant(line_1=TwoVolume(2.0), line_2=TwoVolume(2.0)).compile()
+    seen = []
+    simulate(cp, constant_command(0.2), 2.5, progress=lambda done, total: seen.append((done, total)))
+    # every PROGRESS_PERIODS (1000) control periods from 0, and the last of the 2500
+    assert seen == [(0, 2500), (1000, 2500), (2000, 2500), (2500, 2500)]
