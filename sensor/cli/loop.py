@@ -59,8 +59,8 @@ def register(subparsers) -> None:
 
 def _setup(args):
     from sensor.pneumatic.controllers import CONTROLLERS, MAX_REFERENCE_N
-    from sensor.pneumatic.lines import MAX_LENGTH_M
     from sensor.pneumatic.cylinder import spring_contact
+    from sensor.pneumatic.lines import MAX_LENGTH_M
     from sensor.pneumatic.observer import OBSERVER_KINDS
     from sensor.pneumatic.studies import DacmForceSensor, Setup, sensor_reference, series_spring, settling_duration_s
 
@@ -97,7 +97,7 @@ def run(args) -> int:
 
     if args.study is not None and args.study not in STUDIES:
         raise SensorInputError(f"--study {args.study!r}: must be one of {', '.join(STUDIES)}")
-    from sensor.pneumatic.lines import MAX_LENGTH_M, MAX_SEGMENTS
+    from sensor.pneumatic.lines import MAX_SEGMENTS
 
     if not 1 <= args.segments <= MAX_SEGMENTS:
         raise SensorInputError(f"--segments {args.segments!r}: must be an integer in [1, {MAX_SEGMENTS}]")
