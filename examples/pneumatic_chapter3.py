@@ -1,7 +1,7 @@
 """Chapter III side by side: Table 2 (exit Mach, adiabatic temperature drop), Table 3
 (Richer-Hurmuzlu attenuation) and the fixed-volume pressurisation of Figures 4-7 and 10.
 
-Run:  .venv/bin/python examples/pneumatic_chapter3.py [OUT_DIR]
+Run:  .venv/bin/python examples/pneumatic_chapter3.py [OUT_DIR] [--quiet]
 Prints the tables, the valve-chamber gaps of Figures 4-7, the RMS error of each reduced 7.25 m
 model against the distributed line per excitation (Figure 10; the thesis' own preliminary model,
 eqs 7-13, is the primary row, chapter V's two-volume line a named extension), the thesis'
@@ -32,6 +32,7 @@ from sensor.pneumatic.lines import (
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import ideal_sensors
 from sensor.pneumatic.simulate import simulate
+from sensor.pneumatic.studies import console_progress
 
 BORE = 0.004
 # Table 2 of the thesis: length (m), final velocity (m/s), Mach, temperature (K), drop (%)
@@ -106,10 +107,15 @@ def _gain_lag(t, valve, chamber, f_Hz):
     return abs(h), -math.degrees(np.angle(h))
 
 
-def fixed_volume(out_dir: Path) -> None:
+def fixed_volume(out_dir: Path, quiet: bool = False) -> None:
     inputs = excitations()
-    runs = {name: {"no line": _run(NO_LINE, ctrl), **{m: _run(line, ctrl) for m, line in LONG.items()}}
-            for name, ctrl in inputs.items()}
+    setups = {"no line": NO_LINE, **LONG}
+    runs = {name: {} for name in inputs}
+    with console_progress("chapter III", quiet) as progress:
+        for i, (name, setup) in enumerate((n, s) for n in inputs for s in setups):
+            runs[name][setup] = _run(setups[setup], inputs[name])
+            if progress is not None:
+                progress(i + 1, len(inputs) * len(setups), f"{name} {setup}")
     print(f"\nFixed-volume pressurisation (Figures 4-7, 10): Festo-like valve, {SUPPLY_PA / 1e5:g} bar abs "
           f"supply, {CHAMBER.volume_1_m3 * 1e6:g} cm^3 chamber, {BORE * 1e3:g} mm line, {DURATION_S:g} s runs")
 
@@ -213,11 +219,12 @@ def plot_grid(runs, out_dir: Path) -> None:
 
 
 def main() -> None:
-    out_dir = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("pneumatic-out")
+    args = [a for a in sys.argv[1:] if a != "--quiet"]
+    out_dir = Path(args[0]) if args else Path("pneumatic-out")
     out_dir.mkdir(parents=True, exist_ok=True)
     table2()
     table3()
-    fixed_volume(out_dir)
+    fixed_volume(out_dir, "--quiet" in sys.argv)
 
 
 if __name__ == "__main__":

@@ -46,9 +46,9 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _positive(flag: str, value, unit: str) -> float:
-    if value is None or not (math.isfinite(value) and value > 0):
-        raise SensorInputError(f"{flag} = {value!r}: must be a positive finite number ({unit})")
+def _positive(flag: str, value, unit: str, top: float) -> float:
+    if value is None or not (math.isfinite(value) and 0 < value <= top):
+        raise SensorInputError(f"{flag} = {value!r}: must be a positive finite number <= {top:g} ({unit})")
     return float(value)
 
 
@@ -63,18 +63,18 @@ def parse_models(values: list[str]) -> tuple[str, ...]:
 
 def case_from_args(args: argparse.Namespace):
     from sensor.pneumatic.air import AIR
-    from sensor.pneumatic.line_response import LineCase
+    from sensor.pneumatic.line_response import LIMITS, MAX_FMAX_HZ, MAX_POINTS, LineCase
 
-    length = _positive("--length", args.length, "m")
-    bore = _positive("--bore", args.bore, "m")
-    volume = _positive("--volume", args.volume, "m^3")
-    atm = AIR.atmosphere_Pa
-    if not (math.isfinite(args.pressure) and args.pressure > atm):
+    length = _positive("--length", args.length, "m", LIMITS["length_m"])
+    bore = _positive("--bore", args.bore, "m", LIMITS["bore_m"])
+    volume = _positive("--volume", args.volume, "m^3", LIMITS["volume_m3"])
+    atm, top = AIR.atmosphere_Pa, LIMITS["pressure_Pa"]
+    if not (math.isfinite(args.pressure) and atm < args.pressure <= top):
         raise SensorInputError(f"--pressure = {args.pressure!r}: must be an absolute pressure above the "
-                               f"atmosphere ({atm:g} Pa)")
-    fmax = 0.0 if args.fmax is None else _positive("--fmax", args.fmax, "Hz")
-    if args.points < 10:
-        raise SensorInputError(f"--points = {args.points!r}: must be an integer >= 10")
+                               f"atmosphere ({atm:g} Pa) and <= {top:g} Pa")
+    fmax = 0.0 if args.fmax is None else _positive("--fmax", args.fmax, "Hz", MAX_FMAX_HZ)
+    if not 10 <= args.points <= MAX_POINTS:
+        raise SensorInputError(f"--points = {args.points!r}: must be an integer in [10, {MAX_POINTS}]")
     return LineCase(length, bore, volume, float(args.pressure), parse_models(args.model), fmax, args.points)
 
 

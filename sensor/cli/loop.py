@@ -13,6 +13,7 @@ from sensor.cli.output import add_output_arguments, claim, make_out_dir
 from sensor.errors import SensorInputError
 
 STUDIES = ("observer", "controllers", "sensor")
+MAX_DURATION_S = 3600.0   # simulated time of one run; the stored samples are bounded again by simulate
 
 
 def register(subparsers) -> None:
@@ -57,8 +58,9 @@ def register(subparsers) -> None:
 
 
 def _setup(args):
-    from sensor.pneumatic.controllers import CONTROLLERS
+    from sensor.pneumatic.controllers import CONTROLLERS, MAX_REFERENCE_N
     from sensor.pneumatic.cylinder import spring_contact
+    from sensor.pneumatic.lines import MAX_LENGTH_M
     from sensor.pneumatic.observer import OBSERVER_KINDS
     from sensor.pneumatic.studies import DacmForceSensor, Setup, sensor_reference, series_spring, settling_duration_s
 
@@ -66,8 +68,12 @@ def _setup(args):
         raise SensorInputError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")
     if args.observer not in OBSERVER_KINDS:
         raise SensorInputError(f"--observer {args.observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
-    if not (math.isfinite(args.line_length) and args.line_length > 0):
-        raise SensorInputError(f"--line-length {args.line_length!r}: must be a positive finite number (m)")
+    if not (math.isfinite(args.line_length) and 0 < args.line_length <= MAX_LENGTH_M):
+        raise SensorInputError(f"--line-length {args.line_length!r}: must be a positive finite number <= "
+                               f"{MAX_LENGTH_M:g} (m)")
+    for flag, value in (("--amplitude", args.amplitude), ("--offset", args.offset)):
+        if value is not None and not (math.isfinite(value) and abs(value) <= MAX_REFERENCE_N):
+            raise SensorInputError(f"{flag} {value!r}: must be a finite force within +-{MAX_REFERENCE_N:g} N")
     valve = args.valve or ("festo-mpye-5-1/8-lf" if args.controller in ("pi", "impedance") else "enfield-lh05")
     kw, notes, amp, off = {}, [], 24.0, 0.0
     if args.sensor:
@@ -91,10 +97,13 @@ def run(args) -> int:
 
     if args.study is not None and args.study not in STUDIES:
         raise SensorInputError(f"--study {args.study!r}: must be one of {', '.join(STUDIES)}")
-    if args.segments < 1:
-        raise SensorInputError(f"--segments {args.segments!r}: must be an integer >= 1")
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
-        raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number (s)")
+    from sensor.pneumatic.lines import MAX_SEGMENTS
+
+    if not 1 <= args.segments <= MAX_SEGMENTS:
+        raise SensorInputError(f"--segments {args.segments!r}: must be an integer in [1, {MAX_SEGMENTS}]")
+    if args.duration is not None and not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
+        raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number <= "
+                               f"{MAX_DURATION_S:g} (s)")
     if not args.no_plots or args.study:
         names = ([f"loop-{args.study}.md", *(p.name for p in args.out.glob(f"loop-{args.study}*.png"))]
                  if args.study else ["loop.png"])
@@ -114,13 +123,14 @@ def run(args) -> int:
 def _run_one(args) -> dict:
     from geometry.atomic import save_figure
     from sensor.pneumatic.plots import loop_figure
-    from sensor.pneumatic.studies import metrics
+    from sensor.pneumatic.studies import console_progress, metrics
     from sensor.pneumatic.studies import run as run_experiment
 
     setup, notes = _setup(args)
     for note in notes:
         print(f"dacm loop: {note}", file=sys.stderr)
-    ds = run_experiment(setup)
+    with console_progress("loop", args.quiet) as bar:
+        ds = run_experiment(setup, progress=None if bar is None else lambda k, n: bar(k, n, "control periods"))
     m = metrics(ds, setup.ref)
     result = {"controller": setup.controller, "observer": setup.observer, "reference": setup.reference,
               "amplitude_N": setup.amplitude_N, "offset_N": setup.offset_N, "line_length_m": setup.line_length_m,

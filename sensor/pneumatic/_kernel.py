@@ -34,6 +34,9 @@ SP_A00, SP_A01, SP_A10, SP_A11 = 37, 38, 39, 40   # exact spool step matrix (fil
 OX = 41                                # index of the first extra state (chamber masses, spool)
 T_AIR = 42                             # line (and wall) temperature T (K)
 N_COMMON = 43
+MAX_PRESSURE_PA = 1e8   # pressures beyond 1000 bar leave the models' range (runaway check)
+N_POLES = 8   # kernel poles per element (unsteady friction, heat transfer); fixed here, in this file,
+              # so that changing it recompiles the cached stepper
 SPOOL_DAMPING = 1.0 / math.sqrt(2.0)   # second-order spool: -3 dB at the natural frequency
 # extra states after both side blocks: x[OX + s] chamber-node gas mass of side s (kg),
 # x[OX + 2] spool position (normalised command), x[OX + 3] its rate (1/s)
@@ -364,19 +367,18 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
     kappa = (gam - 1.0) / gam
     c2 = gam * rt
-    kk = kn.size
+    kk = N_POLES   # kn.size, fixed at compile time so the loops over the poles unroll and vectorise
     ox = int(pc[OX])
     nring = ring.shape[1]
     mass_eff = pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0)
     # relaxation factors e = exp(-beta h) and phi = (1 - e) / (beta h) of each element (friction)
     # and tube node (heat transfer), and the sums the steps need, kept in work[s, j] and recomputed
     # only when the local kinematic viscosity has moved by more than NU_TOL since they were computed
-    ef = work[:, :, 0:kk]
-    pf = work[:, :, kk:2 * kk]
-    et = work[:, :, 2 * kk:3 * kk]
-    pt = work[:, :, 3 * kk:4 * kk]
-    cf = work[:, :, 4 * kk:5 * kk]     # (16 nu / D^2) m_i e_i: weight of y_i in the friction drive
-    ch = work[:, :, 5 * kk:6 * kk]     # kappa a_i (e_i - 1): weight of w_i in the node update
+    # (offsets into work[s, j] - indexing the one C-contiguous array, not strided views of it,
+    # lets the compiler vectorise the relaxation loops)
+    ef, pf, et, pt = 0, kk, 2 * kk, 3 * kk
+    cf = 4 * kk                        # (16 nu / D^2) m_i e_i: weight of y_i in the friction drive
+    ch = 5 * kk                        # kappa a_i (e_i - 1): weight of w_i in the node update
     w0 = 6 * kk                        # scalars: nu_f, nu_t, h_f, h_t, thrust, extra, sum a_i phi_i
     for s in range(2):
         op = off[s, O_P]
@@ -390,10 +392,10 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                 extra = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / d2 * h
-                    ef[s, j, i] = math.exp(-bh)
-                    pf[s, j, i] = -math.expm1(-bh) / bh
-                    cf[s, j, i] = c16 * km[i] * ef[s, j, i]
-                    extra += h * c16 * km[i] * pf[s, j, i]
+                    work[s, j, ef + i] = math.exp(-bh)
+                    work[s, j, pf + i] = -math.expm1(-bh) / bh
+                    work[s, j, cf + i] = c16 * km[i] * work[s, j, ef + i]
+                    extra += h * c16 * km[i] * work[s, j, pf + i]
                 work[s, j, w0 + 5] = extra
             nu = mu * rt / x[op + j]
             if abs(nu - work[s, j, w0 + 1]) > NU_TOL * nu or work[s, j, w0 + 3] != h:
@@ -402,10 +404,10 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                 sa = 0.0
                 for i in range(kk):
                     bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
-                    et[s, j, i] = math.exp(-bh)
-                    pt[s, j, i] = -math.expm1(-bh) / bh
-                    ch[s, j, i] = kappa * ka[i] * (et[s, j, i] - 1.0)
-                    sa += ka[i] * pt[s, j, i]
+                    work[s, j, et + i] = math.exp(-bh)
+                    work[s, j, pt + i] = -math.expm1(-bh) / bh
+                    work[s, j, ch + i] = kappa * ka[i] * (work[s, j, et + i] - 1.0)
+                    sa += ka[i] * work[s, j, pt + i]
                 work[s, j, w0 + 6] = sa
     cond = np.empty((2, 2))   # (side, supply / exhaust) conductance at this command
     spool = pc[SPOOL_ORDER] > 0.5
@@ -468,13 +470,13 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     if uns:
                         extra = work[s, j, w0 + 5]
                         for i in range(kk):
-                            drive -= cf[s, j, i] * x[oy + j * kk + i]
+                            drive -= work[s, j, cf + i] * x[oy + j * kk + i]
                     mn = (m * (1.0 + extra) + h * drive) / (1.0 + h * fs + extra)
                     x[om + j] = mn
                     if uns:
                         dmn = mn - m
                         for i in range(kk):
-                            x[oy + j * kk + i] = x[oy + j * kk + i] * ef[s, j, i] + dmn * pf[s, j, i]
+                            x[oy + j * kk + i] = x[oy + j * kk + i] * work[s, j, ef + i] + dmn * work[s, j, pf + i]
             for j in range(nn - 1):
                 mach = max(mach, element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2,
                                               area, rt, c2))
@@ -516,11 +518,11 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     if the:
                         acc_w = 0.0
                         for i in range(kk):
-                            acc_w += ch[s, k, i] * x[ow + k * kk + i]
+                            acc_w += work[s, k, ch + i] * x[ow + k * kk + i]
                         rhs_ += cap * acc_w
                         dp = rhs_ / (cap * (1.0 - kappa * work[s, k, w0 + 6]) - h * g)
                         for i in range(kk):
-                            x[ow + k * kk + i] = x[ow + k * kk + i] * et[s, k, i] + dp * pt[s, k, i]
+                            x[ow + k * kk + i] = x[ow + k * kk + i] * work[s, k, et + i] + dp * work[s, k, pt + i]
                     else:
                         dp = rhs_ / (cap - h * g)
                     pn = p + dp
@@ -528,6 +530,29 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                         acc[A_VALVE + s] += h * (mv + g * dp)
                 x[op + k] = pn
     return head, first_bad(x, off, ps, vmax)
+
+
+@njit(cache=True)
+def control_period(k, x, u, nsub, h, dt, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax,
+                   work, p_read, states, valve_flow, chamber_flow, mach, force):
+    """One control period of the fixed-rate loop: :func:`advance` by nsub substeps at command u, then
+    record row k's mean valve and chamber flows (kg/s over dt) and peak Mach numbers, and row k + 1's
+    state and environment force.  Returns (head, first bad state or -1, first side whose peak Mach
+    exceeds ps[s, S_MACH_LIMIT] or -1, piston position, environment force, and the pressures at
+    the state indices p_read) - the values the sensors read next, as plain floats."""
+    for i in range(A_FORCE):
+        acc[i] = 0.0
+    head, bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work)
+    over = -1
+    for s in range(2):
+        valve_flow[k, s] = acc[A_VALVE + s] / dt
+        chamber_flow[k, s] = acc[A_CHAMBER + s] / dt
+        mach[k, s] = acc[A_MACH + s]
+        if over < 0 and acc[A_MACH + s] > ps[s, S_MACH_LIMIT]:
+            over = s
+    states[k + 1] = x
+    force[k + 1] = acc[A_FORCE]
+    return (head, bad, over, x[0], acc[A_FORCE], x[p_read[0]], x[p_read[1]], x[p_read[2]], x[p_read[3]])
 
 
 @njit(cache=True)
@@ -567,7 +592,7 @@ def first_bad(x, off, ps, vmax):
     for s in range(2):
         for k in range(int(ps[s, S_NN])):
             p = x[off[s, O_P] + k]
-            if p <= 0.0 or p > 1e8:
+            if p <= 0.0 or p > MAX_PRESSURE_PA:
                 return off[s, O_P] + k
     return -1
 

@@ -61,6 +61,8 @@ from sensor.pneumatic.valve import orifice_flow
 CONTROLLERS = ("pi", "impedance", "smc", "line-model", "line-model-damped")
 LINE_MODEL_VARIANTS = {"line-model": "thesis", "line-model-damped": "damped"}
 REFERENCE_KINDS = ("sine", "step", "square")
+MAX_REFERENCE_HZ = 100.0  # sampled at 1 kHz, a faster reference aliases (and no valve-line loop follows it)
+MAX_REFERENCE_N = 1e5     # hard bound on a reference force; the capacity check warns far below it
 
 
 # --- references -------------------------------------------------------------------------------
@@ -81,11 +83,16 @@ class Reference:
     def __post_init__(self) -> None:
         if self.kind not in REFERENCE_KINDS:
             raise SensorInputError(f"reference kind = {self.kind!r}: must be one of {', '.join(REFERENCE_KINDS)}")
-        if self.kind != "step" and not (math.isfinite(self.frequency_Hz) and self.frequency_Hz > 0):
-            raise SensorInputError(f"reference frequency = {self.frequency_Hz!r} Hz: must be a positive finite number")
+        if self.kind != "step" and not (math.isfinite(self.frequency_Hz) and 0 < self.frequency_Hz <= MAX_REFERENCE_HZ):
+            raise SensorInputError(f"reference frequency = {self.frequency_Hz!r} Hz: must be a positive finite number "
+                                   f"<= {MAX_REFERENCE_HZ:g} Hz (a tenth of the 1 kHz control rate)")
         for name in ("amplitude_N", "offset_N", "step_s"):
             if not math.isfinite(getattr(self, name)):
                 raise SensorInputError(f"reference {name} = {getattr(self, name)!r}: must be finite")
+        for name in ("amplitude_N", "offset_N"):
+            if abs(getattr(self, name)) > MAX_REFERENCE_N:
+                raise SensorInputError(f"reference {name} = {getattr(self, name)!r} N: must lie within "
+                                       f"+-{MAX_REFERENCE_N:g} N (the actuators here make well under 1 kN)")
         object.__setattr__(self, "_w", 2 * math.pi * self.frequency_Hz)     # rad/s, for value_and_rate
 
     def value_and_rate(self, t: float) -> tuple[float, float]:

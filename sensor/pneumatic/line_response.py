@@ -30,10 +30,11 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.signal import find_peaks
 
-from sensor.errors import SensorInputError
+from sensor.errors import SensorInputError, SolverError
 from sensor.pneumatic.bergh_tijdeman import bergh_tijdeman
 from sensor.pneumatic.cylinder import FixedChambers
-from sensor.pneumatic.lines import LINE_MODELS, attenuation_factor, make_line
+from sensor.pneumatic._kernel import MAX_PRESSURE_PA
+from sensor.pneumatic.lines import LINE_MODELS, MAX_BORE_M, MAX_LENGTH_M, attenuation_factor, make_line
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import ideal_sensors
 from sensor.pneumatic.simulate import simulate
@@ -44,6 +45,14 @@ SETTLE_FRACTION = 0.01       # chamber within 1 % of the pressure step counts as
 FIRST_HALF_PERIOD_S = 0.05
 MAX_HALF_PERIOD_S = 60.0
 PEAK_PROMINENCE = 1e-3       # a resonance stands 0.1 % of the largest |H| above its surroundings
+MAX_POINTS = 100_000         # frequency points (each costs every model's modal sum)
+MAX_VOLUME_M3 = 1.0
+MAX_FMAX_HZ = 1e6            # far above the acoustic modes of any line the models describe
+
+
+LIMITS = {"length_m": MAX_LENGTH_M, "bore_m": MAX_BORE_M, "volume_m3": MAX_VOLUME_M3,
+          "pressure_Pa": MAX_PRESSURE_PA}
+"""Upper bound of each dimension of a :class:`LineCase` (SI units)."""
 
 
 @dataclass(frozen=True)
@@ -59,17 +68,18 @@ class LineCase:
     points: int = 400
 
     def __post_init__(self) -> None:
-        for name in ("length_m", "bore_m", "volume_m3", "pressure_Pa"):
+        for name, top in LIMITS.items():
             value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise SensorInputError(f"line case {name} = {value!r}: must be a positive finite number")
+            if not (math.isfinite(value) and 0 < value <= top):
+                raise SensorInputError(f"line case {name} = {value!r}: must be a positive finite number <= {top:g}")
         for m in self.models:
             if m not in LINE_MODELS:
                 raise SensorInputError(f"line case model = {m!r}: must be one of {', '.join(LINE_MODELS)}")
-        if not (math.isfinite(self.fmax_Hz) and self.fmax_Hz >= 0):
-            raise SensorInputError(f"line case fmax_Hz = {self.fmax_Hz!r}: must be a finite number >= 0")
-        if not (isinstance(self.points, (int, np.integer)) and self.points >= 10):
-            raise SensorInputError(f"line case points = {self.points!r}: must be an integer >= 10")
+        if not (math.isfinite(self.fmax_Hz) and 0 <= self.fmax_Hz <= MAX_FMAX_HZ):
+            raise SensorInputError(f"line case fmax_Hz = {self.fmax_Hz!r}: must be a finite number in "
+                                   f"[0, {MAX_FMAX_HZ:g}]")
+        if not (isinstance(self.points, (int, np.integer)) and 10 <= self.points <= MAX_POINTS):
+            raise SensorInputError(f"line case points = {self.points!r}: must be an integer in [10, {MAX_POINTS}]")
 
 @dataclass(frozen=True)
 class Response:
@@ -214,6 +224,9 @@ def analyse(case: LineCase) -> dict:
     for model, cp in plants.items():
         h = model_response(model, case, cp)
         amp = h.amplitude(f)
+        if not np.all(np.isfinite(amp)):
+            raise SolverError(f"line frequency response of the {model} model is not finite between "
+                              f"{f[0]:.4g} and {f[-1]:.4g} Hz")
         f_res = first_resonance(h, f)
         result["models"][model] = {
             **_series(h, f), "first_resonance_hz": f_res,

@@ -57,13 +57,19 @@ class LineLayout:
     mach_limit: float = math.inf
 
 
+MAX_LENGTH_M = 1000.0   # longer lines are beyond any tele-operated rig (and the step tests' time bound)
+MAX_BORE_M = 1.0
+MAX_SEGMENTS = 1000     # the substep shrinks and the state grows with the segment count
+
+
 def _check_geometry(length_m: float, bore_m: float, allow_zero_length: bool = False) -> None:
     ok_len = math.isfinite(length_m) and (length_m >= 0 if allow_zero_length else length_m > 0)
-    if not ok_len:
+    if not (ok_len and length_m <= MAX_LENGTH_M):
         rule = ">= 0" if allow_zero_length else "> 0"
-        raise SensorInputError(f"line length_m = {length_m!r}: must be a finite number {rule}")
-    if not (math.isfinite(bore_m) and bore_m > 0):
-        raise SensorInputError(f"line bore_m = {bore_m!r}: must be a positive finite number")
+        raise SensorInputError(f"line length_m = {length_m!r}: must be a finite number {rule} and <= "
+                               f"{MAX_LENGTH_M:g} m")
+    if not (math.isfinite(bore_m) and 0 < bore_m <= MAX_BORE_M):
+        raise SensorInputError(f"line bore_m = {bore_m!r}: must be a positive finite number <= {MAX_BORE_M:g} m")
 
 
 @dataclass(frozen=True)
@@ -150,8 +156,8 @@ class Distributed(DeadVolume):
 
     def __post_init__(self) -> None:
         _check_geometry(self.length_m, self.bore_m)
-        if not isinstance(self.segments, (int, np.integer)) or self.segments < 1:
-            raise SensorInputError(f"line segments = {self.segments!r}: must be an integer >= 1")
+        if not isinstance(self.segments, (int, np.integer)) or not 1 <= self.segments <= MAX_SEGMENTS:
+            raise SensorInputError(f"line segments = {self.segments!r}: must be an integer in [1, {MAX_SEGMENTS}]")
 
     def layout(self) -> LineLayout:
         n = int(self.segments)

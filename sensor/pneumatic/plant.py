@@ -22,6 +22,7 @@ from sensor.pneumatic.valve import FESTO_MPYE, Valve
 STABILITY_LIMIT = 2.0      # symplectic Euler: h omega_max < 2
 DEFAULT_SAFETY = 0.5       # automatic substep: h omega_max <= 1
 MAX_SUBSTEP_S = 1.0e-4     # accuracy cap on the automatic substep
+MAX_SUBSTEPS = 1e6         # substeps per control period (a bound on the work of one period)
 
 
 @dataclass(frozen=True)
@@ -37,9 +38,10 @@ class Plant:
     air: Air = AIR
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.supply_Pa) and self.supply_Pa > self.air.atmosphere_Pa):
-            raise SensorInputError(f"plant supply_Pa = {self.supply_Pa!r}: must be finite and above the "
-                              f"atmosphere ({self.air.atmosphere_Pa} Pa absolute)")
+        if not (math.isfinite(self.supply_Pa) and self.air.atmosphere_Pa < self.supply_Pa <= K.MAX_PRESSURE_PA):
+            raise SensorInputError(f"plant supply_Pa = {self.supply_Pa!r}: must be finite, above the "
+                                   f"atmosphere ({self.air.atmosphere_Pa} Pa absolute) and <= "
+                                   f"{K.MAX_PRESSURE_PA:g} Pa")
         for name in ("line_1", "line_2"):
             if not hasattr(getattr(self, name), "layout"):
                 raise SensorInputError(f"plant {name}: must be a line model (DeadVolume, RicherHurmuzlu, "
@@ -55,7 +57,7 @@ class CompiledPlant:
     def __init__(self, plant: Plant) -> None:
         self.plant = plant
         air, act, env = plant.air, plant.actuator, plant.environment
-        kern = fitted_kernels()
+        kern = fitted_kernels(K.N_POLES)
         self.kn = np.asarray(kern.poles, float)
         self.km = np.asarray(kern.friction_weights, float)
         self.ka = np.asarray(kern.thermal_weights, float)
@@ -235,6 +237,9 @@ class CompiledPlant:
                     f"substep_s = {h_target:.3g} s: exceeds the stability limit {limit:.3g} s of the "
                     f"segmented line (2 / omega_max, omega_max = {wmax:.4g} rad/s); use fewer segments "
                     "or a smaller substep")
+        if not dt_s / h_target <= MAX_SUBSTEPS:
+            raise SensorInputError(f"time step dt_s = {dt_s!r}: needs {dt_s / h_target:.3g} substeps of "
+                                   f"{h_target:.3g} s; must be <= {MAX_SUBSTEPS:g} (raise the control rate)")
         n = max(1, math.ceil(dt_s / h_target - 1e-9))
         return n, dt_s / n
 

@@ -23,6 +23,8 @@ MEASUREMENT_KEYS = ("position_m", "velocity_m_s", "acceleration_m_s2", "force_N"
                     "pressure_valve_1_Pa", "pressure_valve_2_Pa",
                     "pressure_chamber_1_Pa", "pressure_chamber_2_Pa")
 MAX_VELOCITY_M_S = 100.0
+PROGRESS_PERIODS = 1000
+MAX_STORED_VALUES = 2e8   # time samples x (states + readings): 1.6 GB of float64 at most
 
 
 def constant_command(u: float) -> Callable[[float, dict], float]:
@@ -32,8 +34,10 @@ def constant_command(u: float) -> Callable[[float, dict], float]:
 
 def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], float], duration_s: float,
              rate_Hz: float = 1000.0, sensors: Sensors | None = None, initial_state: np.ndarray | None = None,
-             substep_s: float | None = None) -> xr.Dataset:
-    """Run the loop for ``duration_s`` and return every state, command and reading over time."""
+             substep_s: float | None = None, progress: Callable[[int, int], None] | None = None) -> xr.Dataset:
+    """Run the loop for ``duration_s`` and return every state, command and reading over time.
+
+    progress: called as ``progress(done, total)`` (control periods) every PROGRESS_PERIODS and at the end."""
     cp = plant if isinstance(plant, CompiledPlant) else plant.compile()
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise SensorInputError(f"duration_s = {duration_s!r}: must be a positive finite number")
@@ -49,14 +53,13 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     if bad >= 0:
         raise SensorInputError(f"simulation stopped at t = 0 s: state {cp.labels[bad]} = {float(x[bad])!r} "
                           "is not finite or outside its physical range")
-    nsteps = int(round(duration_s * rate_Hz))
+    nsteps = run_steps(duration_s, rate_Hz, cp.n_states)
     delays = np.round(cp.delay_s / h).astype(int)
     ps = cp.ps.copy()
     ps[:, K.S_DELAY] = delays
     pc = cp.pc.copy()
     if pc[K.SPOOL_ORDER] > 0:
         pc[[K.SP_A00, K.SP_A01, K.SP_A10, K.SP_A11]] = cp.plant.valve.spool_step_matrices(h)
-    mach_limit = ps[:, K.S_MACH_LIMIT]
     ring = np.zeros((2, int(delays.max()) + 1))
     head = 0
     acc = np.zeros(K.N_ACC)
@@ -72,20 +75,23 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
     p_valve = (int(cp.off[0, K.O_P]), int(cp.off[1, K.O_P]))
     p_ch = (p_valve[0] + cp.node_count(0) - 1, p_valve[1] + cp.node_count(1) - 1)
+    p_read = np.array(p_valve + p_ch, np.int64)
     args = (pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid, cp.csup, cp.cexh)
     _, _, _, acc[K.A_FORCE] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
+    states[0], force[0] = x, acc[K.A_FORCE]
+    raw = tuple(float(v) for v in (x[0], acc[K.A_FORCE], *x[p_read]))
     read_pos, read_f = sensors.position.read, sensors.force.read
     read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
     read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
     for k in range(nsteps + 1):
         t = k * dt
-        states[k] = x
-        force[k] = acc[K.A_FORCE]
-        z = read_pos(x[0], t)
+        z = read_pos(raw[0], t)
         vz = vel_f.update(z)
-        m = (z, vz, acc_f.update(vz), read_f(acc[4], t), read_v1(x[p_valve[0]], t), read_v2(x[p_valve[1]], t),
-             read_c1(x[p_ch[0]], t), read_c2(x[p_ch[1]], t))
+        m = (z, vz, acc_f.update(vz), read_f(raw[1], t), read_v1(raw[2], t), read_v2(raw[3], t),
+             read_c1(raw[4], t), read_c2(raw[5], t))
         meas[k] = m
+        if progress is not None and (k % PROGRESS_PERIODS == 0 or k == nsteps):
+            progress(k, nsteps)
         if k == nsteps:
             break
         u = controller(t, dict(zip(MEASUREMENT_KEYS, m)))
@@ -94,21 +100,32 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
             raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
         u = min(1.0, max(-1.0, u))
         commands[k] = u
-        acc[:4] = 0.0
-        head, bad = K.advance(x, u, nsub, h, *args, ring, head, acc, MAX_VELOCITY_M_S, work)
-        valve_flow[k] = acc[:2] / dt
-        chamber_flow[k] = acc[2:4] / dt
-        mach[k] = acc[K.A_MACH:K.A_MACH + 2]
-        if mach[k, 0] > mach_limit[0] or mach[k, 1] > mach_limit[1]:
-            s = int(mach[k, 1] > mach_limit[1])
-            raise SolverError(f"simulation stopped at t = {t + dt:.6g} s: the side {s + 1} line reached Mach "
-                              f"{mach[k, s]:.3g}, beyond the distributed line's range (subsonic flow up to "
-                              f"Mach {mach_limit[s]:g}; its isothermal ends choke at Mach "
+        head, bad, over, *raw = K.control_period(k, x, u, nsub, h, dt, *args, ring, head, acc, MAX_VELOCITY_M_S,
+                                                 work, p_read, states, valve_flow, chamber_flow, mach, force)
+        if over >= 0:
+            raise SolverError(f"simulation stopped at t = {t + dt:.6g} s: the side {over + 1} line reached Mach "
+                              f"{mach[k, over]:.3g}, beyond the distributed line's range (subsonic flow up to "
+                              f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
                               f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
         if bad >= 0:
             raise SensorInputError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
                               f"{float(x[bad])!r} is not finite or outside its physical range")
     return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch)
+
+
+def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
+    """Control periods of a run, checked before anything is allocated: at least one, and the
+    stored samples (duration x rate x states) within MAX_STORED_VALUES."""
+    steps = duration_s * rate_Hz
+    if not steps >= 0.5:
+        raise SensorInputError(f"duration {duration_s!r} s at {rate_Hz:g} Hz: must cover at least one control "
+                               f"period ({1.0 / rate_Hz:.3g} s)")
+    values = (steps + 1.0) * (n_states + len(MEASUREMENT_KEYS) + 12)
+    if not values <= MAX_STORED_VALUES:
+        raise SensorInputError(f"duration {duration_s:.4g} s x rate {rate_Hz:g} Hz x {n_states} states stores "
+                               f"{values:.3g} values: must be <= {MAX_STORED_VALUES:.3g} (shorten the duration, "
+                               "lower the rate or use fewer segments)")
+    return round(steps)
 
 
 def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch):

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import xarray as xr
 
-from sensor.errors import CapacityWarning, SensorInputError
+from sensor.errors import CapacityWarning, SensorInputError, SolverError
 from sensor.pneumatic.controllers import (
     CONTROLLERS,
     LINE_MODEL_VARIANTS,
@@ -190,16 +190,17 @@ def check_capacity(setup: Setup, model: ObserverModel) -> list[str]:
     return msgs
 
 
-def run(setup: Setup, rate_Hz: float = 1000.0) -> xr.Dataset:
+def run(setup: Setup, rate_Hz: float = 1000.0, progress=None) -> xr.Dataset:
     """Simulate one experiment; the dataset carries the harness' variables plus the controller's
-    log (``desired_force_N``, ``estimated_pressure_1_Pa``, ...) and the setup in ``attrs``."""
+    log (``desired_force_N``, ``estimated_pressure_1_Pa``, ...) and the setup in ``attrs``.
+    ``progress(done, total)`` counts control periods (see :func:`~sensor.pneumatic.simulate.simulate`)."""
     plant = build_plant(setup)
     model = ObserverModel.from_plant(plant)
     dt = 1.0 / rate_Hz
     ctrl = make_controller(setup, model, dt, plant)
     check_capacity(setup, model)
     sensors = Sensors() if setup.force_sensor is None else Sensors(force=setup.force_sensor)
-    ds = simulate(plant, ctrl, setup.duration_s, rate_Hz, sensors)
+    ds = simulate(plant, ctrl, setup.duration_s, rate_Hz, sensors, progress=progress)
     rows = np.full((ds.sizes["time"], len(ctrl.channels)), np.nan)
     rows[:len(ctrl.rows)] = np.asarray(ctrl.rows, float)
     for j, name in enumerate(ctrl.channels):
@@ -297,6 +298,10 @@ def metrics(ds: xr.Dataset, reference: Reference) -> dict:
         raise SensorInputError(f"duration {float(t[-1]):.4g} s: too short for the MSE window "
                                f"(a step at {reference.step_s:g} s needs a longer run)")
     out = {key: float(np.nanmean(sq[inside])) for key, sq in errors.items()}
+    for key, value in out.items():
+        if not math.isfinite(value):
+            raise SolverError(f"loop metrics: {key} = {value!r} over the steady window is not finite (the run "
+                              "or the observer overflowed)")
     out["window_s"] = [float(t[inside][0]), float(t[inside][-1])]
     st = settling(ds, reference, errors)
     out["settled"] = st["settled"]

@@ -100,7 +100,15 @@ def test_models_repeatable_and_comma_list_and_plots(tmp_path, capsys):
     ("--pressure", "9e4", "--pressure = 90000.0: must be an absolute pressure above the atmosphere"),
     ("--model", "pipe", "--model = 'pipe': must be one of dead-volume"),
     ("--fmax", "-5", "--fmax = -5.0: must be a positive"),
-    ("--points", "3", "--points = 3: must be an integer >= 10"),
+    ("--points", "3", "--points = 3: must be an integer in [10, 100000]"),
+    # huge numbers are refused before anything is allocated or integrated (issue 14)
+    ("--points", "1000000000000", "--points = 1000000000000: must be an integer in [10, 100000]"),
+    ("--length", "1e308", "--length = 1e+308: must be a positive finite number <= 1000 (m)"),
+    ("--bore", "1e308", "--bore = 1e+308: must be a positive finite number <= 1 (m)"),
+    ("--volume", "1e308", "--volume = 1e+308: must be a positive finite number <= 1 (m^3)"),
+    ("--pressure", "1e308", "--pressure = 1e+308: must be an absolute pressure above the atmosphere "
+                            "(101325 Pa) and <= 1e+08 Pa"),
+    ("--fmax", "1e308", "--fmax = 1e+308: must be a positive finite number <= 1e+06 (Hz)"),
 ])
 def test_bad_input_is_one_line_exit_2(capsys, flag, value, words):
     args = {"--length": "2", "--bore": BORE, "--volume": VOLUME, "--pressure": "2e5"}

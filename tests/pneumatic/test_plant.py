@@ -131,10 +131,11 @@ def test_non_finite_command_and_runaway_states_stop_with_a_named_error():
     x0[cp.labels.index("side2_flow_0")] = math.nan
     with pytest.raises(SensorError, match=r"t = 0 s: state side2_flow_0 = nan"):
         simulate(cp, constant_command(0.0), 0.01, initial_state=x0)
-    # a state that runs away during the run: a 5 kbar supply drives a line pressure past the
-    # 1e8 Pa sanity bound; the error names the state and a time after the start
-    wild = Plant(supply_Pa=5e8, line_1=TwoVolume(2.0), line_2=TwoVolume(2.0)).compile()
-    with pytest.raises(SensorError, match=r"stopped at t = 0\.0\d+ s: state side1_pressure_0 = "):
+    # a state that runs away during the run: the highest supply a plant accepts (1e8 Pa) overshoots
+    # in the two-volume line past the 1e8 Pa sanity bound; the error names the state and a time
+    # after the start
+    wild = Plant(supply_Pa=1e8, line_1=TwoVolume(2.0), line_2=TwoVolume(2.0)).compile()
+    with pytest.raises(SensorError, match=r"stopped at t = 0\.0\d+ s: state side1_pressure_1 = "):
         simulate(wild, constant_command(1.0), 0.5)
 
 
@@ -158,3 +159,11 @@ def test_bad_simulation_input(kwargs, word):
 def test_bad_actuator_input(make, word):
     with pytest.raises(SensorError, match=word):
         make()
+
+
+def test_progress_counts_every_control_period_up_to_the_end():
+    cp = Plant(line_1=TwoVolume(2.0), line_2=TwoVolume(2.0)).compile()
+    seen = []
+    simulate(cp, constant_command(0.2), 2.5, progress=lambda done, total: seen.append((done, total)))
+    # every PROGRESS_PERIODS (1000) control periods from 0, and the last of the 2500
+    assert seen == [(0, 2500), (1000, 2500), (2000, 2500), (2500, 2500)]
