@@ -240,7 +240,7 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
         return value
 
     def items(value, name):
-        if value == [] and name == "supports":
+        if isinstance(value, list) and not value and name == "supports":
             fail("no support: the model would move as a rigid body")
         if not isinstance(value, list) or not 0 < len(value) <= MAX_MODEL_ITEMS:
             fail(f"{name} = {reprlib.repr(value)}: must be a non-empty list of at most {MAX_MODEL_ITEMS} entries")
