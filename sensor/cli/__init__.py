@@ -105,8 +105,11 @@ def _one_line(text) -> str:
 @contextlib.contextmanager
 def _orderly_stops(command: str):
     """SIGTERM raises :class:`Terminated` like Ctrl-C raises KeyboardInterrupt, and each
-    warning prints as one line ``dacm COMMAND: warning|note: ...`` (restored on exit)."""
+    warning prints as one line ``dacm COMMAND: warning|note: ...`` (restored on exit); after
+    a stop signal warnings are dropped (an interrupted import leaves e.g. an unclosed file)."""
     def show(message, category, *_args, **_kwargs):
+        if _stopped_by:
+            return
         kind = "note" if issubclass(category, ResourceNote) else "warning"
         print(f"dacm {command}: {kind}: {_one_line(message)}", file=sys.stderr)
 

@@ -92,7 +92,8 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
                     last = time.monotonic()
     except (KeyboardInterrupt, ClusterLostError) as exc:
         where = _save_checkpoint(ds, dataset_path, done)
-        what = f"after {done} of {n_cells} cells{where}; finish with --resume"
+        what = (f"after {done} of {n_cells} cells{where}; finish with --resume" if done else
+                f"before the first of {n_cells} cells was done (nothing to save)")
         if isinstance(exc, ClusterLostError):
             raise ClusterLostError(f"{exc}: stopped {what}") from None
         signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
