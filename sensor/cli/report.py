@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import shlex
 import sys
 
-from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
 from sensor.cli.output import add_output_arguments, claim
 from sensor.cli.progress import add_quiet_argument, busy
 
@@ -36,12 +35,10 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from sensor.errors import UsageError
     from sensor.report.design_report import output_paths, write_design_report
 
-    if not (math.isfinite(args.target_output) and args.target_output > 0):
-        raise UsageError(f"--target-output = {args.target_output:g}: must be a positive number of mm")
     design = design_from_args(args)
+    check_flags(args, {"target_output": travel_rule(design.height_mm)})
     claim(args, [p.name for p in output_paths(design, args.out)])
     command = shlex.join(["dacm", *sys.argv[1:]]) if sys.argv[1:2] == ["report"] else ""
     with busy(f"report {design.name}" + ("" if args.no_verify else " (with the continuum "

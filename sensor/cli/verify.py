@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
 from sensor.cli.output import add_output_arguments, claim, make_out_dir
 from sensor.cli.progress import add_quiet_argument, busy
 
@@ -43,17 +43,17 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from geometry.atomic import save_figure
     from geometry.checks import assert_feasible
+    from geometry.params import MAX_KERF_MM
+    from geometry.validation import Number
     from sensor.errors import UsageError
     from sensor.mechanics.continuum import verification_to_dict, verify_design
     from sensor.mechanics.plots import stress_field_figure
 
     if args.mesh not in MESHES:
         raise UsageError(f"--mesh = {args.mesh!r}: must be one of {', '.join(MESHES)}")
-    if not args.target_output > 0:
-        raise UsageError(f"--target-output = {args.target_output!r}: must be a positive number (mm)")
-    if not args.kerf >= 0:
-        raise UsageError(f"--kerf = {args.kerf!r}: must be zero or a positive number (mm)")
+    check_flags(args, {"kerf": Number(0.0, MAX_KERF_MM, unit="mm")})
     design = design_from_args(args)
+    check_flags(args, {"target_output": travel_rule(design.height_mm)})
     paths = [] if args.no_plots else claim(args, [f"{design.name}-verify.png"])
     assert_feasible(design)
     with busy(f"verify {design.name}: continuum FE at three meshes", args.quiet):

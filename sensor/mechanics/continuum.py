@@ -78,14 +78,16 @@ class ContinuumResult:
 
 def cut_profile_loops(design: Design, kerf_mm: float = 0.0):
     """Outline and holes (``x, y, bulge`` loops, mm) of the profile; with ``kerf_mm`` the
-    part a jet of that width leaves (re-entrant corners rounded with radius kerf / 2)."""
+    part a jet of that width leaves (re-entrant corners rounded with radius kerf / 2),
+    checked as ``dacm export`` checks it: no gap closes, every hinge neck keeps its width."""
     from geometry.cad import face_loops, offset_face, profile_face
+    from geometry.export import kerf_path
 
     face = profile_face(design)
     if not (math.isfinite(kerf_mm) and kerf_mm >= 0):
         raise SensorInputError(f"kerf_mm = {kerf_mm!r}: must be a non-negative number")
     if kerf_mm > 0:
-        face = offset_face(offset_face(face, kerf_mm / 2), -kerf_mm / 2)
+        face = offset_face(kerf_path(design, face, kerf_mm), -kerf_mm / 2)
     return face_loops(face)
 
 

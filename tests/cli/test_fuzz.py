@@ -1,5 +1,5 @@
-"""CLI fuzz test: bad inputs sampled at random for export, check, draw, render, solve, sensor
-and sweep (flags with absurd numbers, malformed TOML designs and sweep settings, malformed
+"""CLI fuzz test: bad inputs sampled at random for export, check, draw, render, solve, sensor,
+verify, report, measure, design and sweep (flags with absurd numbers, malformed TOML designs and sweep settings, malformed
 beam models, corrupt sweep datasets). Each must give the tool's answer to bad input: exit
 status 2, one line on stderr naming the command, no traceback, and no new or changed file
 anywhere (inside --out or beside it). Bounded: a fixed number of examples, each refused
@@ -45,6 +45,14 @@ MODELS = [[1, 2], {**_GOOD, "members": [{k: v for k, v in _M0.items() if k != "s
           {**_GOOD, "members": [dict(_M0, start=4.5)]}, {**_GOOD, "nodes": [[0, 0]]}, "not json"]
 
 
+#: A loading-unloading loop (force N, displacement mm) and CSVs that are not one.
+LOOP_CSV = b"force_N,displacement_mm\n" + b"".join(
+    f"{f:g},{f / 4.4:g}\n".encode() for f in [0, 1, 2, 3, 4, 3, 2, 1, 0])
+BAD_CSVS = [b"", b"force_N,displacement_mm\n", b"force_N,displacement_mm\n1,2\n", b"a,b\nx,y\nz,w\n",
+            b"force_N,displacement_mm\n0,0\nnan,1\n2,inf\n", b"\xff\xfe\x00\x01", b"1,2,3\n4,5,6\n7,8,9\n",
+            b"force_N,displacement_mm\n" + b"0,0\n" * 10]
+
+
 def _design_cases():
     flags = ["--phi1", "--phi2"]
     cases = [[f, v] for f in flags for v in BAD_NUMBERS + ["0", "90"]]
@@ -75,6 +83,19 @@ COMMANDS = {
                + _numbers("--tolerance", BAD_NUMBERS) + [["--adc-range", "nan", "1"], ["--adc-range", "1", "inf"]]
                + [["--calibration", "foo"], ["--readout", "foo"], ["--optics-model", "foo"]],
                ["--out", "OUT"]),
+    "verify": (_design_cases() + _numbers("--target-output", BAD_NUMBERS + ["31"])
+               + _numbers("--kerf", BAD_NUMBERS + ["6"]) + [["--mesh", "foo"]], ["--out", "OUT"]),
+    "report": (_design_cases() + _numbers("--target-output", BAD_NUMBERS + ["31"]), ["--out", "OUT", "--no-verify"]),
+    "measure": ([[("csv", LOOP_CSV)] + bad for bad in _design_cases()] + [[("csv", c)] for c in BAD_CSVS]
+                + [[("csv", LOOP_CSV), "--columns", c] for c in ("", "force", "volts,force,x", "mass,length")]
+                + [["no-such-file.csv"]], ["--calibrate", "--out", "OUT"]),
+    "design": ([["--range", v] for v in BAD_NUMBERS + ["0", "1e6"]]
+               + [["--range", "5"] + bad for bad in (
+                   _numbers("--travel", BAD_NUMBERS + ["31"]) + _numbers("--hinge-min", BAD_NUMBERS + ["0.01"])
+                   + _numbers("--hinge-max", BAD_NUMBERS + ["50"]) + _numbers("--robust", BAD_NUMBERS)
+                   + _numbers("--min-yield", BAD_NUMBERS + ["1.5"]) + _numbers("--workers", BAD_INTEGERS)
+                   + [["--seed", "-1"], ["--scheduler", "foo"], ["--hinge-min", "1", "--hinge-max", "0.5"]])],
+               ["--out", "OUT"]),
     "sweep": ([["--seed", "-1"], ["--monte-carlo", "1000000000000", "--hinge-sd", "0.01"],
                ["--monte-carlo", "2", "--hinge-sd", "inf"], ["--phi1="], ["--phi1", "6:31:100000000"],
                ["--phi2", "a:b:c"], ["--phi1", "nan:20:3"], ["--scheduler", "foo"], ["--workers", "-1"],
@@ -92,6 +113,9 @@ def _materialise(arg, work: Path, out: Path) -> str:
     kind, content = arg
     if kind == "toml":
         path = work / "in.toml"
+        path.write_bytes(content)
+    elif kind == "csv":
+        path = work / "loop.csv"
         path.write_bytes(content)
     elif kind == "json":
         path = work / "model.json"
