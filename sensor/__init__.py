@@ -1,8 +1,8 @@
 """How the body behaves, what the sensor reads, and the loop it serves.
 
 A small lazy facade (``import sensor`` loads nothing heavy): the chain solver and the
-qualifiers of a design, the sensor model and its datasheet, design-space sweeps, and the
-errors. The subpackages hold the rest: :mod:`sensor.mechanics`, :mod:`sensor.readout`,
+qualifiers of a design, the sensor model and its datasheet, design-space sweeps, the
+range-targeted optimiser, and the errors. The subpackages hold the rest: :mod:`sensor.mechanics`, :mod:`sensor.readout`,
 :mod:`sensor.design_space`, :mod:`sensor.pneumatic`; :mod:`sensor.cli` is the ``dacm``
 command.
 
@@ -27,6 +27,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "design_space.spec": ["Grid", "SweepSpec"],
         "design_space.execution": ["run_sweep"],
         "design_space.dataset": ["load_dataset"],
-        "errors": ["SensorError", "SensorInputError", "SolverError"],
+        "design_space.optimise": ["DesignProblem", "optimise"],
+        "errors": ["DesignError", "SensorError", "SensorInputError", "SolverError"],
     },
 )
