@@ -100,10 +100,11 @@ def plot_profile(design: Design, ax) -> None:
     ax.annotate("fiber", xy=(0, (lay.y_base + lay.post_top) / 2), xytext=(2.2, lay.y_base + 2.0),
                 fontsize=8, color="#e07b00", arrowprops=dict(arrowstyle="-", lw=0.5, color="#e07b00"))
 
-    # angles: phi1 at the right base hinge (from the vertical), phi2 at the left knee
-    p0, p1 = lay.P0 * (-1, 1), lay.P1 * (-1, 1)
+    # angles: phi1 at the left base hinge (from the vertical; the right side carries the
+    # output and fiber labels), phi2 at the left knee
+    p0, p1 = lay.P0, lay.P1
     lean = math.degrees(math.atan2(p1[1] - p0[1], p1[0] - p0[0]))
-    _angle_mark(ax, p0, 90.0, lean, 7.0, r"$\varphi_1$", p0 + (0, 8.5), (-0.9, 0.3))
+    _angle_mark(ax, p0, 90.0, lean, 7.0, r"$\varphi_1$", p0 + (0, 8.5), (0.9, 0.3))
     if not design.is_basis:
         k, q = lay.K, lay.Q
         rise = math.degrees(math.atan2(q[1] - k[1], q[0] - k[0]))
