@@ -26,6 +26,7 @@ import re
 import shutil
 import subprocess
 from dataclasses import dataclass
+from html.parser import HTMLParser
 from pathlib import Path
 
 import imageio.v3 as iio
@@ -100,3 +101,14 @@ def open_in_browser(page: Path, workdir: Path, window_px: tuple[int, int] = (120
     found = re.search(r'<pre id="dacm-probe">(.*?)</pre>', run.stdout, re.DOTALL)
     assert found, "the probe did not run (no load event, or the script was blocked)"
     return BrowserCheck(iio.imread(shot), console, json.loads(html.unescape(found.group(1))))
+
+
+def start_tags(text: str) -> list[tuple[str, dict]]:
+    """Every start tag of an HTML page with its attributes, in order."""
+    class _Tags(HTMLParser):
+        def handle_starttag(self, tag, attrs):
+            tags.append((tag, dict(attrs)))
+
+    tags: list[tuple[str, dict]] = []
+    _Tags().feed(text)
+    return tags

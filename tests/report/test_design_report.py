@@ -6,7 +6,6 @@ import hashlib
 import sys
 import time
 import xml.etree.ElementTree as ET
-from html.parser import HTMLParser
 from types import SimpleNamespace
 
 import imageio.v3 as iio
@@ -29,7 +28,7 @@ from sensor.report.design_report import (
     write_design_report,
 )
 from sensor.report.html import render_template
-from tests.report.browser import open_in_browser
+from tests.report.browser import open_in_browser, start_tags
 
 
 @pytest.fixture(scope="module")
@@ -39,17 +38,6 @@ def report(tmp_path_factory):
     return design, out, write_design_report(design, out, verify=False,
                                             command="dacm report --preset sample-b")
 
-
-class _Page(HTMLParser):
-    """Every start tag with its attributes."""
-
-    def __init__(self, text):
-        super().__init__()
-        self.tags = []
-        self.feed(text)
-
-    def handle_starttag(self, tag, attrs):
-        self.tags.append((tag, dict(attrs)))
 
 
 def test_numbers_are_those_of_the_solver_and_the_datasheet(report):
@@ -85,7 +73,7 @@ def test_page_is_self_contained_with_every_picture_readable(report):
     """Nothing but inline style and data: images; every anchor link lands on a section; the
     four pictures decode (PNG not blank, SVG well-formed)."""
     _, _, rep = report
-    tags = _Page(rep.path.read_text()).tags
+    tags = start_tags(rep.path.read_text())
     names = {t for t, _ in tags}
     assert not names & {"script", "link", "iframe", "object", "embed", "base"}
     ids = {a["id"] for _, a in tags if "id" in a}

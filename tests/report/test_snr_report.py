@@ -5,27 +5,17 @@ from __future__ import annotations
 
 import json
 import re
-from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from sensor.cli import main
-from tests.report.browser import open_in_browser
+from tests.report.browser import open_in_browser, start_tags
 
 PAIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "mri" / "siemens_aera_pair"
 A, B = PAIR / "tra_250_2meas_1.IMA", PAIR / "tra_250_2meas_2.IMA"
 
-
-class _Tags(HTMLParser):
-    def __init__(self, text):
-        super().__init__()
-        self.tags = []
-        self.feed(text)
-
-    def handle_starttag(self, tag, attrs):
-        self.tags.append((tag, dict(attrs)))
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +49,7 @@ def test_pair_report_explains_the_ring_of_the_difference_image(pair_report):
 
 
 def test_pair_report_is_self_contained(pair_report):
-    tags = _Tags(pair_report.read_text()).tags
+    tags = start_tags(pair_report.read_text())
     for tag, attrs in tags:
         for key in ("src", "href"):
             value = attrs.get(key, "")
