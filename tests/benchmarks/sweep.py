@@ -15,7 +15,6 @@ Run from the repository root: python -m tests.benchmarks.sweep
 
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -52,7 +51,7 @@ def main():
     d = SweepSpec()
     out = {"cells": len(d.hinge_sets) * d.phi1.n * d.phi2.n, "workers": os.cpu_count()}
     with tempfile.TemporaryDirectory() as tmp:
-        runs = [command("sweep", "--out", tmp, "--quiet") for _ in range(3)]
+        runs = [command("sweep", "--out", tmp, "--quiet", "--force") for _ in range(3)]
         out["wall_s"] = round(sorted(r[0] for r in runs)[1], 2)
         out["wall_runs_s"] = [round(r[0], 2) for r in runs]
         out["command_peak_rss_MB_per_process"] = round(max(r[1] for r in runs), 1)
@@ -62,7 +61,7 @@ def main():
             t0 = time.perf_counter()
             run_sweep(spec, "bench")
             out["cells_per_s"][f"{n}x{n}"] = round(len(d.hinge_sets) * n * n / (time.perf_counter() - t0))
-            _, rss = command("sweep", "--out", tmp, "--quiet", "--workers", "1", "--no-plots", *grid(n))
+            _, rss = command("sweep", "--out", tmp, "--quiet", "--force", "--workers", "1", "--no-plots", *grid(n))
             out["peak_rss_MB"][f"{n}x{n}"] = round(rss, 1)
     out["thesis_estimate_s"] = round(out["cells"] * 0.5, 1)
     print(json.dumps(out))
