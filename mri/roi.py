@@ -92,7 +92,8 @@ class Roi:
 
     @property
     def n_pixels(self) -> int:
-        return int(self.mask.sum())
+        """Pixels in the ROI (a box's is its area: no pass over the mask)."""
+        return self.box[2] * self.box[3] if self.box is not None else int(self.mask.sum())
 
 
 def _length(token: str, text: str) -> Length:
