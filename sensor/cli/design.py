@@ -7,6 +7,7 @@ import argparse
 import json
 
 from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.progress import add_quiet_argument, busy
 
 #: The files written to --out.
 FILES = ("design.toml", "design-datasheet.json", "design-profile.png", "basis.toml")
@@ -43,6 +44,7 @@ def register(subparsers) -> None:
                    help="local processes (default: one per core; 1 = serial)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on this Dask distributed scheduler")
     add_output_arguments(p, "design.toml, its datasheet and profile, basis.toml")
+    add_quiet_argument(p)
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
 
@@ -63,12 +65,14 @@ def run(args: argparse.Namespace) -> int:
     except DesignError as exc:
         raise DesignError(_flagged(str(exc))) from None
     claim(args, FILES)
-    with task_pool(args.workers, args.scheduler) as pool:
+    with task_pool(args.workers, args.scheduler) as pool, busy(f"design {args.range_N:g} N", args.quiet) as step:
         try:
+            step("the DACM")
             best = optimise(problem, pool)
         except DesignError as exc:
             raise DesignError(_flagged(str(exc))) from None
         try:
+            step("the basis body of the same range")
             basis, no_basis = optimise(basis_problem, pool), ""
         except DesignError as exc:   # a DACM may reach ranges no basis body does
             basis, no_basis = None, str(exc)
