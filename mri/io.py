@@ -73,12 +73,18 @@ def _read_dicom(path: Path):
         raise ImageLoadError(f"{path}: unreadable DICOM file ({exc})") from None
 
 
+#: Tags of the enhanced multi-frame functional-group sequences.
+_PER_FRAME_GROUPS, _SHARED_GROUPS = 0x52009230, 0x52009229
+
+
 def _lookup(ds, keyword: str, frame: int = 0):
     """A DICOM attribute from frame ``frame``'s functional groups, the shared ones, or the top level.
 
     Enhanced multi-frame files keep spacing, orientation, rescale and timing inside
     per-frame and shared functional-group sequences; classic files keep them at the top level.
     """
+    if _PER_FRAME_GROUPS not in ds and _SHARED_GROUPS not in ds:  # a classic file (fast path)
+        return ds.get(keyword)
     for group_keyword in ("PerFrameFunctionalGroupsSequence", "SharedFunctionalGroupsSequence"):
         groups = ds.get(group_keyword)
         if not groups:
