@@ -41,7 +41,8 @@ def check_out_dir(out: Path) -> None:
                          f"after the design): use --out {out.parent}{fmt}, or another folder")
 
 
-def refuse_existing(paths: Iterable[Path], force: bool, hint: str = "") -> None:
+def refuse_existing(paths: Iterable[Path], force: bool, hint: str = "",
+                    elsewhere: str = "another --out") -> None:
     """Raise :class:`UsageError` naming the first of ``paths`` that exists, unless ``force``;
     ``hint`` is another way out, e.g. ``"--resume to finish it"``."""
     if force:
@@ -51,7 +52,17 @@ def refuse_existing(paths: Iterable[Path], force: bool, hint: str = "") -> None:
     if existing:
         more = f" ({len(existing)} of the {len(paths)} files to write do)" if len(existing) > 1 else ""
         raise UsageError(f"{existing[0]} exists{more}: use --force to replace, "
-                         f"{hint + ', ' if hint else ''}or another --out")
+                         f"{hint + ', ' if hint else ''}or {elsewhere}")
+
+
+def claim_files(paths_by_flag: dict[str, str | None], force: bool) -> None:
+    """The rule for a command whose flags name their files (``dacm snr --csv PATH``): each
+    given path's folder exists and the file does not, unless ``force``; checked before any
+    work, one line naming the flag otherwise."""
+    for flag, path in paths_by_flag.items():
+        if path and not Path(path).parent.is_dir():
+            raise UsageError(f"{flag} {path}: the folder {Path(path).parent} does not exist")
+    refuse_existing([Path(p) for p in paths_by_flag.values() if p], force, elsewhere="another path")
 
 
 def claim(args: argparse.Namespace, names: Iterable[str], hint: str = "") -> list[Path]:

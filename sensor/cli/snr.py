@@ -145,10 +145,10 @@ def _write_outputs(args, pairs, panels, comparison=None) -> None:
 
 
 def run(args) -> int:
-    from sensor.cli.output import refuse_existing
+    from sensor.cli.output import claim_files
 
     _check_mode(args)
-    refuse_existing([Path(p) for p in (args.csv, args.figure, args.report) if p], args.force)
+    claim_files({"--csv": args.csv, "--figure": args.figure, "--report": args.report}, args.force)
     options = _options(args)
     if args.reference:
         return _run_conditions(args, options)
