@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import xarray as xr
+from matplotlib import rcParams
 from matplotlib.colors import BoundaryNorm
 from matplotlib.figure import Figure
 
@@ -31,9 +32,12 @@ LABELS = {**PANELS, "robust_quality_ratio": "robust quality (10th percentile) / 
 
 
 def _save(fig, path: Path, formats=("png", "svg")) -> list[Path]:
-    """Write one figure in several formats (atomically) and close it."""
+    """Write one figure in several formats (atomically) and close it, cropped to its tight
+    bounding box, which is computed once (``bbox_inches="tight"`` draws the whole figure
+    again for every format)."""
+    bbox = fig.get_tightbbox().padded(rcParams["savefig.pad_inches"])
     return [save_figure(fig, path.with_suffix(f".{fmt}"), dpi=130, close=(fmt == formats[-1]),
-                        bbox_inches="tight") for fmt in formats]
+                        bbox_inches=bbox) for fmt in formats]
 
 
 def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
