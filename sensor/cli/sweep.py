@@ -6,6 +6,7 @@ import argparse
 import json
 import time
 import tomllib
+import warnings
 from pathlib import Path
 
 from sensor.cli.output import add_output_arguments, claim, make_out_dir
@@ -103,7 +104,7 @@ def output_names(spec, plots: bool) -> list[str]:
         # matplotlib is imported only when plots are made
         from sensor.design_space.plots import PANELS
 
-        stems = ["figure49", *PANELS, "hysteresis-vs-range"] + (["robust_quality_ratio"] if spec.monte_carlo else [])
+        stems = ["figure49", "hysteresis-vs-range", *PANELS] + (["robust_quality_ratio"] if spec.monte_carlo else [])
         names += [f"{stem}.{fmt}" for stem in stems for fmt in ("png", "svg")]
     return names
 
@@ -138,10 +139,19 @@ def run(args: argparse.Namespace) -> int:
         units = {k: ds[k].attrs["units"] for k in fronts[str(h)].columns}
         written.append(write_table(fronts[str(h)], out / f"pareto-{h}.csv", units))
     if not args.no_plots:
-        from sensor.design_space.plots import plot_figure49, plot_hysteresis_vs_range
+        from geometry.atomic import remove_stale_temps
+        from sensor.design_space.execution import task_pool
+        from sensor.design_space.plots import write_figures
+        from sensor.errors import ResourceNote
 
-        written += plot_figure49(ds, out)
-        written += plot_hysteresis_vs_range(ds, fronts, out)
+        try:
+            with warnings.catch_warnings():  # a note on --workers was given by the sweep
+                warnings.simplefilter("ignore", ResourceNote)
+                with task_pool(args.workers) as pool:
+                    written += write_figures(ds, fronts, out, pool)
+        finally:  # a worker stopped mid-write leaves a temp file; its process is gone now
+            for name in names:
+                remove_stale_temps(out / name)
     from sensor.design_space.summary import summary, summary_text
 
     s = summary(ds, n_new, t_solve, time.monotonic() - t0, written)

@@ -74,11 +74,38 @@ def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
     ax.set_title(f"{LABELS.get(var, var)}\nhinge set {hinges}", fontsize=9)
 
 
+def figure_names(ds: xr.Dataset) -> list[str]:
+    """The stems of a sweep's figures, slowest first: the combined Figure 49, hysteresis
+    against range, one figure per ratio, and the robust quality with Monte Carlo."""
+    robust = ["robust_quality_ratio"] if any(k.startswith("mc_") for k in ds.data_vars) else []
+    return ["figure49", "hysteresis-vs-range", *PANELS, *robust]
+
+
+def write_figures(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path, pool=None) -> list[Path]:
+    """Every figure of a sweep (PNG and SVG), drawn on ``pool`` (a
+    :class:`~sensor.design_space.execution.TaskPool`, one figure a task) or in this process."""
+    jobs = [(name, ds, fronts, out_dir) for name in figure_names(ds)]
+    drawn = pool.map(draw_figure, jobs) if pool is not None else map(draw_figure, jobs)
+    return [path for paths in drawn for path in paths]
+
+
+def draw_figure(job) -> list[Path]:
+    """Draw and write one figure of :func:`figure_names`; ``job`` is (stem, dataset, fronts,
+    folder)."""
+    name, ds, fronts, out_dir = job
+    if name == "figure49":
+        return plot_figure49(ds, out_dir)
+    if name == "hysteresis-vs-range":
+        return plot_hysteresis_vs_range(ds, fronts, out_dir)
+    if name == "robust_quality_ratio":
+        rob = ds["mc_quality_mm_per_N_p10"] / ds["basis_quality_mm_per_N"]
+        return plot_ratio_figure(ds.assign(robust_quality_ratio=rob), name, out_dir)
+    return plot_ratio_figure(ds, name, out_dir)
+
+
 def plot_figure49(ds: xr.Dataset, out_dir: Path) -> list[Path]:
-    """Figure 49 (amplification, k_out and SE ratios per hinge set) plus hysteresis and
-    quality ratios; one figure per ratio with one panel per hinge set, and the combined
-    Figure 49 layout. PNG and SVG."""
-    written = []
+    """Figure 49: the amplification, k_out and SE ratios, one row each, one column per hinge
+    set. PNG and SVG."""
     hsets = [str(h) for h in ds["hinges"].values]
     fig49 = Figure(figsize=(5.2 * len(hsets), 13))
     axes = fig49.subplots(3, len(hsets), squeeze=False)
@@ -88,27 +115,24 @@ def plot_figure49(ds: xr.Dataset, out_dir: Path) -> list[Path]:
     fig49.suptitle("Proposed DACM over the basis body at the same phi1 (thesis Figure 49); "
                    "bold red: ratio = 1, hatched: infeasible", fontsize=10)
     fig49.tight_layout()
-    written += _save(fig49, out_dir / "figure49")
-    for var in PANELS:
-        fig = Figure(figsize=(5.2 * len(hsets), 4.6))
-        axes = fig.subplots(1, len(hsets), squeeze=False)
-        for c, h in enumerate(hsets):
-            plot_ratio_panel(axes[0, c], ds, var, h)
-        if var.startswith("equal_range"):
-            fig.suptitle("hatched: infeasible or over the allowable stress; dotted: no basis body "
-                         "reaches the cell's range within the allowable stress", fontsize=9)
-        fig.tight_layout()
-        written += _save(fig, out_dir / var)
-    if any(k.startswith("mc_") for k in ds.data_vars):
-        fig = Figure(figsize=(5.2 * len(hsets), 4.6))
-        axes = fig.subplots(1, len(hsets), squeeze=False)
-        for c, h in enumerate(hsets):
-            rob = ds["mc_quality_mm_per_N_p10"] / ds["basis_quality_mm_per_N"]
-            plot_ratio_panel(axes[0, c], ds.assign(robust_quality_ratio=rob), "robust_quality_ratio", h)
-            axes[0, c].set_title(f"robust quality (10th percentile over hinge scatter) / basis\nhinge set {h}", fontsize=9)
-        fig.tight_layout()
-        written += _save(fig, out_dir / "robust_quality_ratio")
-    return written
+    return _save(fig49, out_dir / "figure49")
+
+
+def plot_ratio_figure(ds: xr.Dataset, var: str, out_dir: Path) -> list[Path]:
+    """One ratio (a key of :data:`LABELS`) with one panel per hinge set. PNG and SVG."""
+    hsets = [str(h) for h in ds["hinges"].values]
+    fig = Figure(figsize=(5.2 * len(hsets), 4.6))
+    axes = fig.subplots(1, len(hsets), squeeze=False)
+    for c, h in enumerate(hsets):
+        plot_ratio_panel(axes[0, c], ds, var, h)
+        if var == "robust_quality_ratio":
+            axes[0, c].set_title(f"robust quality (10th percentile over hinge scatter) / basis\nhinge set {h}",
+                                 fontsize=9)
+    if var.startswith("equal_range"):
+        fig.suptitle("hatched: infeasible or over the allowable stress; dotted: no basis body "
+                     "reaches the cell's range within the allowable stress", fontsize=9)
+    fig.tight_layout()
+    return _save(fig, out_dir / var)
 
 
 def plot_hysteresis_vs_range(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path) -> list[Path]:
