@@ -347,7 +347,8 @@ def unreachable_message(problem: DesignProblem, reach: tuple[float, float]) -> s
     lo, hi = reach
     return (f"range_N = {problem.range_N:g}: no {problem.body} body within the feasibility rules, "
             f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable stress reaches "
-            f"it at {problem.travel_mm:g} mm travel; reachable: about {lo:.3g} to {hi:.3g} N")
+            f"it at {problem.travel_mm:g} mm travel; with equal hinges they reach about {lo:.3g} to "
+            f"{hi:.3g} N (unequal hinges somewhat further)")
 
 
 def reachable_range(problem: DesignProblem, n: int = 7) -> tuple[float, float]:

@@ -37,7 +37,7 @@ def test_design_json_files_and_solve_reproduces_it(quick, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv,fragment", [
-    (["--range", "1000"], "reachable: about"),
+    (["--range", "1000"], "with equal hinges they reach about"),
     (["--range", "-1"], "--range = -1.0"),
     (["--range", "nan"], "--range = nan"),
     (["--range", "3", "--hinge-min", "0.5", "--hinge-max", "0.3"], "--hinge-max = 0.3"),

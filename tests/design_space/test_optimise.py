@@ -82,5 +82,5 @@ def test_bad_problems_name_the_field(kw, fragment):
 
 
 def test_unreachable_range_names_the_reachable_interval():
-    with pytest.raises(DesignError, match=r"range_N = 1000: .* reachable: about [\d.]+ to [\d.]+ N"):
+    with pytest.raises(DesignError, match=r"range_N = 1000: .* with equal hinges they reach about [\d.]+ to [\d.]+ N"):
         optimise(DesignProblem(1000.0))
