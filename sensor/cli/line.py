@@ -11,6 +11,7 @@ import json
 import math
 
 from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.progress import add_quiet_argument, busy
 from sensor.errors import SensorInputError
 from sensor.pneumatic.lines import LINE_MODELS
 
@@ -41,6 +42,7 @@ def register(subparsers) -> None:
     p.add_argument("--points", type=int, default=400, metavar="N",
                    help="log-spaced frequencies (default 400)")
     add_output_arguments(p, "the plots")
+    add_quiet_argument(p)
     p.add_argument("--no-plots", action="store_true", help="do not write the plots")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
@@ -88,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
 
     case = case_from_args(args)
     files = [] if args.no_plots else claim(args, ["line-frequency-response.png", "line-step.png"])
-    result = analyse(case)
+    with busy(f"line {case.length_m:g} m: {len(case.models)} models", args.quiet):
+        result = analyse(case)
     if not args.no_plots:
         from geometry.atomic import save_figure
         from sensor.pneumatic.line_plots import frequency_figure, step_figure
