@@ -67,6 +67,10 @@ def _free_polygons(parts: list[Part]) -> np.ndarray:
                      for p in parts])
 
 
+#: Each vertex's successor round a quad (np.roll by -1, without its overhead).
+_NEXT_VERTEX = np.array([1, 2, 3, 0])
+
+
 def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distances between convex quads poly[I] and poly[J] (pairs), and an overlap mask
     (separating-axis test on the edge normals of both)."""
@@ -74,7 +78,7 @@ def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.
 
     def point_to_edges(P, Q):
         a = Q[:, None, :, :]                                  # (k, 1, 4, 2) edge starts
-        ab = np.roll(Q, -1, axis=1)[:, None] - a              # (k, 1, 4, 2)
+        ab = Q[:, _NEXT_VERTEX][:, None] - a              # (k, 1, 4, 2)
         p = P[:, :, None, :]                                  # (k, 4, 1, 2)
         t = np.clip(((p - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
         d = p - a - t[..., None] * ab
@@ -83,7 +87,7 @@ def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.
     dist = np.sqrt(np.minimum(point_to_edges(A, B), point_to_edges(B, A)))
     separated = np.zeros(len(I), dtype=bool)
     for Q in (A, B):
-        e = np.roll(Q, -1, axis=1) - Q
+        e = Q[:, _NEXT_VERTEX] - Q
         n = np.stack([-e[..., 1], e[..., 0]], -1)             # (k, 4, 2) edge normals
         pa = np.einsum("kvd,knd->knv", A, n)
         pb = np.einsum("kvd,knd->knv", B, n)

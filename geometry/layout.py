@@ -94,15 +94,20 @@ def bar(a: np.ndarray, b: np.ndarray, width: float, extend_a: float = 0.0,
          extend_b: float = 0.0) -> np.ndarray:
     """Rectangle of ``width`` around segment a-b, lengthened past a and b (into the bodies
     the segment is rooted in, so the union has no notch)."""
-    u = (b - a) / np.linalg.norm(b - a)
-    n = np.array([-u[1], u[0]]) * width / 2
-    a2, b2 = a - u * extend_a, b + u * extend_b
-    return np.array([a2 - n, b2 - n, b2 + n, a2 + n])
+    # scalar arithmetic: a profile has about 30 bars and a sweep checks thousands of profiles
+    dx, dy = float(b[0] - a[0]), float(b[1] - a[1])
+    length = math.hypot(dx, dy)
+    ux, uy = dx / length, dy / length
+    nx, ny = -uy * width / 2, ux * width / 2
+    ax, ay = a[0] - ux * extend_a, a[1] - uy * extend_a
+    bx, by = b[0] + ux * extend_b, b[1] + uy * extend_b
+    return np.array([[ax - nx, ay - ny], [bx - nx, by - ny], [bx + nx, by + ny], [ax + nx, ay + ny]])
 
 
 def member_chain(a: np.ndarray, b: np.ndarray, hinge_length: float) -> np.ndarray:
     """Nodes of a hinge-link-hinge member from a to b: (4, 2) = a, a + l_h u, b - l_h u, b."""
-    u = (b - a) / np.linalg.norm(b - a)
+    d = b - a
+    u = d / math.hypot(d[0], d[1])
     return np.array([a, a + u * hinge_length, b - u * hinge_length, b])
 
 

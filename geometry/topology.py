@@ -84,6 +84,12 @@ class BeamModel:
         return idx[np.argsort(self.hinge_number[idx])]
 
 
+def _key(p) -> tuple[float, float]:
+    """A point as a dict key, rounded to 1e-12 mm (so that equal points computed two ways
+    meet)."""
+    return round(float(p[0]), 12), round(float(p[1]), 12)
+
+
 def _unit(v) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     return v / np.linalg.norm(v)
@@ -124,7 +130,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     plate_l = node((lay.P3[0] + lean[0] * k * d.hinge_thickness_mm[3], yc))
     plate_r = node((-lay.P3[0] - lean[0] * k * d.hinge_thickness_mm[4], yc))
     top_l, top_r = node(lay.P3), node(lay.P3 * mirror)
-    anchor = {tuple(np.round(p, 12)): i for i, p in
+    anchor = {_key(p): i for i, p in
               ((base_l, lay.P0), (base_r, lay.P0 * mirror), (knee_lo_l, lay.P1),
                (knee_hi_l, lay.P2), (knee_lo_r, lay.P1 * mirror), (knee_hi_r, lay.P2 * mirror),
                (top_l, lay.P3), (top_r, lay.P3 * mirror))}
@@ -146,8 +152,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         k_l, k_r = node(lay.K), node(lay.K * mirror)
         q_l, q_r = node(lay.Q), node(lay.Q * mirror)
         out = node(lay.output_point)
-        anchor.update({tuple(np.round(lay.K, 12)): k_l, tuple(np.round(lay.K * mirror, 12)): k_r,
-                       tuple(np.round(lay.Q, 12)): q_l, tuple(np.round(lay.Q * mirror, 12)): q_r})
+        anchor.update({_key(lay.K): k_l, _key(lay.K * mirror): k_r,
+                       _key(lay.Q): q_l, _key(lay.Q * mirror): q_r})
         members += [("rigid", knee_lo_l, k_l, d.knee_width_mm, 0, "left knee"),
                     ("rigid", knee_lo_r, k_r, d.knee_width_mm, 0, "right knee"),
                     ("rigid", q_l, out, d.platform_thickness_mm, 0, "platform"),
@@ -156,9 +162,9 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     for name, (a, b), h1, h2 in side_members(lay):
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         chain = member_chain(a, b, d.hinge_length_mm)
-        u = (b - a) / np.linalg.norm(b - a)
-        ia = anchor[tuple(np.round(a, 12))]
-        ib = anchor[tuple(np.round(b, 12))]
+        u = (b - a) / math.hypot(*(b - a))
+        ia = anchor[_key(a)]
+        ib = anchor[_key(b)]
         # elastic roots: each hinge is clamped k t inside the body and inside the link it
         # joins (rigid offsets carry the bodies out to those points)
         ra, rb = node(a - u * k * t1), node(b + u * k * t2)

@@ -52,27 +52,28 @@ ROOT_KT = 1.45
 
 
 def _nominal_stress(N, Ma, Mb, t, b, L, s):
-    """Axial plus bending stress (MPa) at stations s (mm) of a member with end forces N,
-    Ma, Mb: |N| / (t b) + 6 |M(s)| / (b t^2), M(s) = -Ma + (Ma + Mb) s / L."""
-    return abs(N) / (t * b) + 6.0 * np.abs(-Ma + (Ma + Mb) * s / L) / (b * t * t)
+    """Axial plus bending stress (MPa) at stations s (mm) of members with end forces N,
+    Ma, Mb (arrays, one entry a member): |N| / (t b) + 6 |M(s)| / (b t^2),
+    M(s) = -Ma + (Ma + Mb) s / L."""
+    return np.abs(N) / (t * b) + 6.0 * np.abs(-Ma + (Ma + Mb) * s / L) / (b * t * t)
 
 
 def hinge_stresses(model: BeamModel, result,
                    root_depth_per_thickness: float = ROOT_DEPTH_PER_THICKNESS) -> dict[int, HingeStress]:
     """Each hinge's stresses at the solved state of ``result`` (a SolveResult of ``model``)."""
     row = {int(m): i for i, m in enumerate(result.member_index)}
-    out = {}
-    for m in model.hinge_members:
-        N, Ma, Mb = result.member_forces[row[int(m)]]
-        t, b = model.thickness_mm[m], model.depth_mm[m]
-        L = float(model.lengths_mm[m])
-        root = root_depth_per_thickness * t
-        nominal = _nominal_stress(N, Ma, Mb, t, b, L, np.array([root, L - root])).max()
-        neck = _nominal_stress(N, Ma, Mb, t, b, L, np.array([min(root + t, L / 2),
-                                                             max(L - root - t, L / 2)])).max()
-        out[int(model.hinge_number[m])] = HingeStress(int(model.hinge_number[m]), float(nominal),
-                                                      float(neck), ROOT_KT, float(ROOT_KT * nominal))
-    return out
+    hinges = model.hinge_members
+    N, Ma, Mb = np.asarray(result.member_forces)[[row[int(m)] for m in hinges]].T
+    t, b = model.thickness_mm[hinges], model.depth_mm[hinges]
+    L = model.lengths_mm[hinges]
+    root = root_depth_per_thickness * t
+    nominal = np.maximum(_nominal_stress(N, Ma, Mb, t, b, L, root),
+                         _nominal_stress(N, Ma, Mb, t, b, L, L - root))
+    neck = np.maximum(_nominal_stress(N, Ma, Mb, t, b, L, np.minimum(root + t, L / 2)),
+                      _nominal_stress(N, Ma, Mb, t, b, L, np.maximum(L - root - t, L / 2)))
+    numbers = model.hinge_number[hinges]
+    return {int(h): HingeStress(int(h), float(n), float(k), ROOT_KT, float(ROOT_KT * n))
+            for h, n, k in zip(numbers, nominal, neck)}
 
 
 @dataclass(frozen=True)
