@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geometry.errors import InfeasibleDesignError
-from geometry.layout import Part, bar, make_layout, make_parts
+from geometry.layout import Layout, Part, bar, make_layout, make_parts
 from geometry.params import Design
 
 #: Smallest mirror the platform must carry (mm): DESIGN section 3 ("a mirror of about 3-5 mm").
@@ -53,9 +53,13 @@ def phi1_limit_deg(d: Design) -> float:
     return math.degrees(math.atan2(max(room, 0.0), rise))
 
 
-def phi2_limit_deg(d: Design) -> float:
-    """Largest phi2 (deg) before the platform meets the top plate (less one kerf)."""
-    lay = make_layout(d.replace(phi2_deg=45.0) if d.is_basis else d)
+def phi2_limit_deg(d: Design, layout: Layout | None = None) -> float:
+    """Largest phi2 (deg) before the platform meets the top plate (less one kerf);
+    ``layout``: the design's own, if at hand (a proposed body's)."""
+    if d.is_basis:
+        lay = make_layout(d.replace(phi2_deg=45.0))
+    else:
+        lay = layout if layout is not None else make_layout(d)
     span = -d.platform_width_mm / 2 - lay.K[0]
     head = lay.y_top - d.kerf_mm - d.platform_thickness_mm / 2 - lay.K[1]
     return math.degrees(math.atan2(head, span))
@@ -71,10 +75,9 @@ def _free_polygons(parts: list[Part]) -> np.ndarray:
 _NEXT_VERTEX = np.array([1, 2, 3, 0])
 
 
-def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distances between convex quads poly[I] and poly[J] (pairs), and an overlap mask
+def _pair_distances(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distances between convex quads A[k] and B[k], (k, 4, 2) each, and an overlap mask
     (separating-axis test on the edge normals of both)."""
-    A, B = poly[I], poly[J]                                   # (k, 4, 2)
 
     def point_to_edges(P, Q):
         a = Q[:, None, :, :]                                  # (k, 1, 4, 2) edge starts
@@ -85,7 +88,7 @@ def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.
         return (d * d).sum(-1).min(axis=(1, 2))
 
     dist = np.sqrt(np.minimum(point_to_edges(A, B), point_to_edges(B, A)))
-    separated = np.zeros(len(I), dtype=bool)
+    separated = np.zeros(len(A), dtype=bool)
     for Q in (A, B):
         e = Q[:, _NEXT_VERTEX] - Q
         n = np.stack([-e[..., 1], e[..., 0]], -1)             # (k, 4, 2) edge normals
@@ -96,16 +99,27 @@ def _pair_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> tuple[np.
 
 
 def _near_pairs(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> np.ndarray:
-    """Mask of the pairs that can hold the smallest distance or an overlap: those whose
-    bounding boxes are no farther apart than the closest pair of centroids (an upper bound
-    of that pair's distance), plus 1e-6 mm so that pairs the separating-axis test (1e-9
-    tolerance) would call touching stay in. Skipping the others leaves the rules' results,
-    and which pair they name, unchanged."""
-    lo, hi, centre = poly.min(axis=1), poly.max(axis=1), poly.mean(axis=1)   # (P, 2)
-    gap = np.maximum(np.maximum(lo[J] - hi[I], lo[I] - hi[J]), 0.0)          # (k, 2)
+    """(n, k) mask of the pairs (I, J) of each design's parts, ``poly`` (n, P, 4, 2), that
+    can hold its smallest distance or an overlap: those whose bounding boxes are no farther
+    apart than the design's closest pair of centroids (an upper bound of that pair's
+    distance), plus 1e-6 mm so that pairs the separating-axis test (1e-9 tolerance) would
+    call touching stay in. Skipping the others leaves the rules' results, and which pair
+    they name, unchanged."""
+    lo, hi, centre = poly.min(axis=2), poly.max(axis=2), poly.mean(axis=2)   # (n, P, 2)
+    gap = np.maximum(np.maximum(lo[:, J] - hi[:, I], lo[:, I] - hi[:, J]), 0.0)   # (n, k, 2)
     lower = np.sqrt((gap * gap).sum(-1))
-    upper = np.sqrt(((centre[I] - centre[J]) ** 2).sum(-1)).min()
+    upper = np.sqrt(((centre[:, I] - centre[:, J]) ** 2).sum(-1)).min(axis=1, keepdims=True)
     return lower <= upper + 1e-6
+
+
+def _near_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> list[tuple]:
+    """For each of n designs of one topology, ``poly`` (n, P, 4, 2): its near pairs (as
+    indices into I, J), their distances and overlap mask; one vectorised pass for all."""
+    near = _near_pairs(poly, I, J)
+    which, pair = np.nonzero(near)
+    dist, overlap = _pair_distances(poly[which, I[pair]], poly[which, J[pair]])
+    cuts = np.cumsum(near.sum(axis=1))[:-1]
+    return list(zip(np.split(pair, cuts), np.split(dist, cuts), np.split(overlap, cuts)))
 
 
 _ROOTS = {1: "base plate", 2: "left knee", 3: "left knee", 4: "top plate left", 5: "top plate right",
@@ -147,7 +161,34 @@ def _free_pairs(names: tuple[str, ...], kinds: tuple[str, ...], hinges: tuple[in
 
 def check_design(d: Design) -> FeasibilityReport:
     """Evaluate every rule in :data:`RULES` on a design."""
-    lay = make_layout(d)
+    return check_designs([d])[0]
+
+
+def check_designs(designs) -> list[FeasibilityReport]:
+    """:func:`check_design` of each design in a sequence; the part distances of the designs
+    that share a topology are computed in one vectorised pass (a sweep row checks 42)."""
+    shapes = []
+    for d in designs:
+        lay = make_layout(d)
+        parts = make_parts(lay)
+        shapes.append((lay, parts, _free_polygons(parts)))
+    groups: dict[tuple, list[int]] = {}
+    for n, (_, parts, _) in enumerate(shapes):
+        key = (tuple(p.name for p in parts), tuple(p.kind for p in parts), tuple(p.hinge for p in parts))
+        groups.setdefault(key, []).append(n)
+    near: list = [None] * len(shapes)
+    for key, members in groups.items():
+        I, J = _free_pairs(*key)
+        poly = np.stack([shapes[n][2] for n in members])
+        for n, (pair, dist, overlap) in zip(members, _near_distances(poly, I, J)):
+            near[n] = (I[pair], J[pair], dist, overlap)
+    return [_report(d, *shape, *pairs) for d, shape, pairs in zip(designs, shapes, near)]
+
+
+def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, J: np.ndarray,
+            dist: np.ndarray, overlap: np.ndarray) -> FeasibilityReport:
+    """The rules of one design, given its layout, parts, free polygons and its near part
+    pairs (I, J) with their distances and overlap mask."""
     res: list[RuleResult] = []
 
     def add(rule, ok, msg):
@@ -157,7 +198,7 @@ def check_design(d: Design) -> FeasibilityReport:
     ok = d.phi1_deg <= lim1
     msg = f"phi1_deg = {d.phi1_deg:g}: must be <= {lim1:.2f} deg (side links reach the fiber post)"
     if ok and not d.is_basis:
-        lim2 = phi2_limit_deg(d)
+        lim2 = phi2_limit_deg(d, lay)
         ok = d.phi2_deg <= lim2
         msg = f"phi2_deg = {d.phi2_deg:g}: must be <= {lim2:.2f} deg (platform meets the top plate)"
     add("angle_limits", ok, msg)
@@ -176,7 +217,6 @@ def check_design(d: Design) -> FeasibilityReport:
     else:
         add("min_feature", True, f"thinnest hinge {thinnest:g} mm >= {d.min_feature_mm:g} mm")
 
-    parts = make_parts(lay)
     links = [p for p in parts if p.kind == "link"]
     shortest = min(links, key=lambda p: np.linalg.norm(p.axis[1] - p.axis[0]))
     llen = float(np.linalg.norm(shortest.axis[1] - shortest.axis[0]))
@@ -184,7 +224,6 @@ def check_design(d: Design) -> FeasibilityReport:
         f"hinge_length_mm = {d.hinge_length_mm:g}: leaves the {shortest.name} only {llen:.2f} mm "
         f"between its hinges; must be >= link_width_mm = {d.link_width_mm:g} mm")
 
-    poly = _free_polygons(parts)
     lo, hi = poly.reshape(-1, 2).min(0), poly.reshape(-1, 2).max(0)
     tol = 1e-9
     inside = (lo[0] >= -d.width_mm / 2 - tol and hi[0] <= d.width_mm / 2 + tol
@@ -192,11 +231,6 @@ def check_design(d: Design) -> FeasibilityReport:
     add("footprint", inside, f"body spans x [{lo[0]:.2f}, {hi[0]:.2f}], y [{lo[1]:.2f}, {hi[1]:.2f}] mm: "
         f"must fit the footprint width_mm = {d.width_mm:g} x height_mm = {d.height_mm:g}")
 
-    I, J = _free_pairs(tuple(p.name for p in parts), tuple(p.kind for p in parts),
-                       tuple(p.hinge for p in parts))
-    near = _near_pairs(poly, I, J)
-    I, J = I[near], J[near]
-    dist, overlap = _pair_distances(poly, I, J)
     if overlap.any():
         k = int(np.argmax(overlap))
         add("no_crossing", False, f"{parts[I[k]].name} crosses {parts[J[k]].name} "

@@ -31,12 +31,32 @@ def resolution_N(force_N, travel_mm, fiber_clearance_mm: float, optics: OpticsSe
     """RMS force resolution (N), the worst over the range, of a body whose mirror travels
     ``travel_mm`` under ``force_N`` (a solve's curve from the unloaded state, increasing)
     with the fiber ``fiber_clearance_mm`` from the mirror at rest; NaN for a failed solve."""
-    f, x = np.asarray(force_N, dtype=float), np.asarray(travel_mm, dtype=float)
-    if f.size < 2 or not (np.isfinite(f).all() and np.isfinite(x).all()) or np.any(np.diff(x) <= 0):
-        return float("nan")
-    x0, x1 = round(float(x[0]), 9), round(float(x[-1]), 9)  # one cache entry per travel
-    dF_dx = PchipInterpolator(x, f).derivative()(np.linspace(x0, x1, STATIONS))
-    return float(np.max(np.abs(dF_dx) * _travel_noise_mm(float(fiber_clearance_mm), x0, x1, optics, readout)))
+    return float(resolutions_N([(force_N, travel_mm)], [fiber_clearance_mm], optics, readout)[0])
+
+
+def resolutions_N(curves, fiber_clearance_mm, optics: OpticsSetup = OpticsSetup(),
+                  readout: Readout = Readout()) -> np.ndarray:
+    """:func:`resolution_N` of many bodies: ``curves`` holds (force_N, travel_mm) pairs (None
+    for a failed solve: NaN), ``fiber_clearance_mm`` one clearance each. Curves with the same
+    travel stations (a sweep row's, under displacement control) share one interpolant."""
+    out = np.full(len(curves), np.nan)
+    groups: dict[tuple, list[int]] = {}
+    for n, curve in enumerate(curves):
+        if curve is None:
+            continue
+        f, x = np.asarray(curve[0], dtype=float), np.asarray(curve[1], dtype=float)
+        if f.size < 2 or f.shape != x.shape or not (np.isfinite(f).all() and np.isfinite(x).all()) \
+                or np.any(np.diff(x) <= 0):
+            continue
+        groups.setdefault((x.tobytes(), float(fiber_clearance_mm[n])), []).append(n)
+    for (_, clearance), members in groups.items():
+        x = np.asarray(curves[members[0]][1], dtype=float)
+        f = np.column_stack([np.asarray(curves[n][0], dtype=float) for n in members])
+        x0, x1 = round(float(x[0]), 9), round(float(x[-1]), 9)  # one cache entry per travel
+        dF_dx = PchipInterpolator(x, f, axis=0)(np.linspace(x0, x1, STATIONS), 1)   # (STATIONS, k)
+        noise = _travel_noise_mm(clearance, x0, x1, optics, readout)
+        out[members] = np.max(np.abs(dF_dx) * noise[:, None], axis=0)
+    return out
 
 
 @functools.lru_cache(maxsize=64)

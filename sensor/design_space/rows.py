@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from geometry.checks import check_design
+from geometry.checks import check_designs
 from geometry.params import HINGE_SETS
 from geometry.topology import build_beam_model
 from sensor.design_space.dataset import BODY, FAMILY, MC_QUALIFIERS, mc_statistic
-from sensor.design_space.resolution import resolution_N
+from sensor.design_space.resolution import resolutions_N
 from sensor.design_space.spec import SweepSpec
 from sensor.mechanics.qualifiers import Qualifiers, qualify
 from sensor.mechanics.solver import SolverOptions, solve_batch
@@ -31,8 +31,8 @@ def _evaluate(designs, spec: SweepSpec, opts: SolverOptions):
     res, errs = solve_batch(models, target_output_mm=spec.target_output_mm, options=opts)
     q = [qualify(r, spec.law) if r is not None else Qualifiers.missing() for r in res]
     out = {k: np.array([getattr(x, k) for x in q], dtype=float) for k in Qualifiers.names()}
-    out["resolution_N"] = np.array([np.nan if r is None else resolution_N(r.force_N, r.output_mm, d.fiber_clearance_mm)
-                                    for d, r in zip(designs, res)])
+    out["resolution_N"] = resolutions_N([None if r is None else (r.force_N, r.output_mm) for r in res],
+                                        [d.fiber_clearance_mm for d in designs])
     out["stress_utilisation"] = np.array([np.nan if r is None else stress_check(d, m, r).utilisation
                                           for d, m, r in zip(designs, models, res)])
     assert set(out) == set(BODY)
@@ -48,9 +48,12 @@ def solve_row(spec: SweepSpec, hinges: str, i: int, todo: np.ndarray | None = No
     opts = SolverOptions()
     row = {"hinges": hinges, "i": i, "computed": todo.copy(),
            "reason": np.array([""] * len(phi2s), dtype=object)}
-    # the reference: the basis body with this phi1
+    # the reference: the basis body with this phi1, and the proposed body at each phi2
     basis = spec.design(hinges, phi1, None)
-    fail = check_design(basis).first_failure
+    cells_todo = np.flatnonzero(todo)
+    proposed = [spec.design(hinges, phi1, phi2s[j]) for j in cells_todo]
+    basis_report, *reports = check_designs([basis, *proposed])
+    fail = basis_report.first_failure
     if fail is None:
         vals, err = _evaluate([basis], spec, opts)
         row["basis"] = {k: float(v[0]) for k, v in vals.items()}
@@ -59,11 +62,9 @@ def solve_row(spec: SweepSpec, hinges: str, i: int, todo: np.ndarray | None = No
         row["basis"] = {k: np.nan for k in BODY}
         basis_reason = f"basis infeasible: {fail.rule}: {fail.message}"
     row["basis_reason"] = basis_reason
-    # the proposed body at each phi2
     designs, cells = [], []
-    for j in np.flatnonzero(todo):
-        d = spec.design(hinges, phi1, phi2s[j])
-        fail = check_design(d).first_failure
+    for j, d, report in zip(cells_todo, proposed, reports):
+        fail = report.first_failure
         if fail is not None:
             row["reason"][j] = f"{fail.rule}: {fail.message}"
         else:
@@ -92,7 +93,7 @@ def basis_family(spec: SweepSpec, phi1: float, opts: SolverOptions = SolverOptio
     ts = spec.family_thickness_mm()
     out = {k: np.full(len(ts), np.nan) for k in FAMILY}
     designs = [spec.family_design(phi1, t) for t in ts]
-    ok = [n for n, d in enumerate(designs) if check_design(d).feasible]
+    ok = [n for n, report in enumerate(check_designs(designs)) if report.feasible]
     if ok:
         vals, _ = _evaluate([designs[n] for n in ok], spec, opts)
         for k in FAMILY:
