@@ -109,10 +109,21 @@ def output_names(spec, plots: bool) -> list[str]:
     return names
 
 
+def _write_data(ds, fronts: dict, out: Path) -> list[Path]:
+    """The dataset, its CSV and each hinge set's Pareto table, written in ``out``."""
+    from sensor.design_space.dataset import save_dataset, write_csv, write_table
+
+    save_dataset(ds, out / "sweep.nc")
+    written = [out / "sweep.nc", write_csv(ds, out / "sweep.csv")]
+    for h, front in fronts.items():
+        units = {k: ds[k].attrs["units"] for k in front.columns}
+        written.append(write_table(front, out / f"pareto-{h}.csv", units))
+    return written
+
+
 def run(args: argparse.Namespace) -> int:
     from importlib.metadata import version
 
-    from sensor.design_space.dataset import save_dataset, write_csv
     from sensor.design_space.execution import run_sweep
     from sensor.errors import SweepError
 
@@ -128,27 +139,23 @@ def run(args: argparse.Namespace) -> int:
     ds, n_new = run_sweep(spec, version("dacm"), nc, resume=args.resume, workers=args.workers,
                           scheduler=args.scheduler, progress=CountingBar("sweep", "cells") if shown(args.quiet) else None)
     t_solve = time.monotonic() - t0
-    save_dataset(ds, nc)
-    written = [nc, write_csv(ds, out / "sweep.csv")]
-    from sensor.design_space.dataset import write_table
     from sensor.design_space.equal_range import pareto_front
 
-    fronts = {}
-    for h in ds["hinges"].values:
-        fronts[str(h)] = pareto_front(ds, str(h))
-        units = {k: ds[k].attrs["units"] for k in fronts[str(h)].columns}
-        written.append(write_table(fronts[str(h)], out / f"pareto-{h}.csv", units))
-    if not args.no_plots:
+    fronts = {str(h): pareto_front(ds, str(h)) for h in ds["hinges"].values}
+    if args.no_plots:
+        written = _write_data(ds, fronts, out)
+    else:
         from geometry.atomic import remove_stale_temps
         from sensor.design_space.execution import task_pool
-        from sensor.design_space.plots import write_figures
+        from sensor.design_space.plots import start_figures
         from sensor.errors import ResourceNote
 
         try:
             with warnings.catch_warnings():  # a note on --workers was given by the sweep
                 warnings.simplefilter("ignore", ResourceNote)
                 with task_pool(args.workers) as pool:
-                    written += write_figures(ds, fronts, out, pool)
+                    figures = start_figures(ds, fronts, out, pool)   # drawn while the data is written
+                    written = _write_data(ds, fronts, out) + figures()
         finally:  # a worker stopped mid-write leaves a temp file; its process is gone now
             for name in names:
                 remove_stale_temps(out / name)

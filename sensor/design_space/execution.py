@@ -334,10 +334,16 @@ def _close_client(client) -> None:
 
 @dataclass(frozen=True)
 class TaskPool:
-    """``map(fn, items) -> list`` (in order) on ``size`` parallel workers."""
+    """``size`` parallel workers. ``start(fn, items)`` hands the work out and returns a
+    function that waits for the results (a list, in order), so this process can do other
+    work meanwhile; ``map(fn, items)`` is the two at once. In-process (size 1) the work is
+    done when the results are asked for."""
 
-    map: Callable[[Callable, Iterable], list]
+    start: Callable[[Callable, Iterable], Callable[[], list]]
     size: int
+
+    def map(self, fn: Callable, items: Iterable) -> list:
+        return self.start(fn, items)()
 
 
 @contextlib.contextmanager
@@ -359,13 +365,17 @@ def task_pool(workers: int = 0, scheduler: str | None = None):
                              f"({type(exc).__name__})") from None
         try:
             size = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
-            yield TaskPool(lambda fn, items: client.gather(client.map(fn, list(items), pure=False)), size)
+            def start(fn, items):
+                futures = client.map(fn, list(items), pure=False)
+                return lambda: client.gather(futures)
+
+            yield TaskPool(start, size)
         finally:
             _close_client(client)
         return
     n = local_workers(workers)
     if n <= 1:
-        yield TaskPool(lambda fn, items: [fn(x) for x in items], 1)
+        yield TaskPool(lambda fn, items: lambda: [fn(x) for x in items], 1)
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
@@ -373,6 +383,10 @@ def task_pool(workers: int = 0, scheduler: str | None = None):
     pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("fork"),
                                initializer=_worker_setup, initargs=(os.getpid(),))
     try:
-        yield TaskPool(lambda fn, items: list(pool.map(fn, items)), n)
+        def start(fn, items):
+            results = pool.map(fn, items)  # every item is submitted now
+            return lambda: list(results)
+
+        yield TaskPool(start, n)
     finally:
         _stop_pool(pool)

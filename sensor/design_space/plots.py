@@ -87,12 +87,15 @@ def figure_names(ds: xr.Dataset) -> list[str]:
     return ["figure49", "hysteresis-vs-range", *PANELS, *robust]
 
 
-def write_figures(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path, pool=None) -> list[Path]:
-    """Every figure of a sweep (PNG and SVG), drawn on ``pool`` (a
-    :class:`~sensor.design_space.execution.TaskPool`, one figure a task) or in this process."""
+def start_figures(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path, pool=None):
+    """Every figure of a sweep (PNG and SVG), handed out to ``pool`` (a
+    :class:`~sensor.design_space.execution.TaskPool`, one figure a task): returns the
+    function that waits for the written paths (without a pool, it draws them)."""
     jobs = [(name, ds, fronts, out_dir) for name in figure_names(ds)]
-    drawn = pool.map(draw_figure, jobs) if pool is not None else map(draw_figure, jobs)
-    return [path for paths in drawn for path in paths]
+    if pool is None:
+        return lambda: [path for job in jobs for path in draw_figure(job)]
+    drawn = pool.start(draw_figure, jobs)
+    return lambda: [path for paths in drawn() for path in paths]
 
 
 def draw_figure(job) -> list[Path]:
