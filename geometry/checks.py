@@ -77,23 +77,25 @@ _NEXT_VERTEX = np.array([1, 2, 3, 0])
 
 def _pair_distances(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distances between convex quads A[k] and B[k], (k, 4, 2) each, and an overlap mask
-    (separating-axis test on the edge normals of both)."""
+    (separating-axis test on the edge normals of both). Written per coordinate: numpy's
+    reductions over a length-2 axis cost more than the arithmetic."""
+    ax, ay, bx, by = A[..., 0], A[..., 1], B[..., 0], B[..., 1]        # (k, 4)
 
-    def point_to_edges(P, Q):
-        a = Q[:, None, :, :]                                  # (k, 1, 4, 2) edge starts
-        ab = Q[:, _NEXT_VERTEX][:, None] - a              # (k, 1, 4, 2)
-        p = P[:, :, None, :]                                  # (k, 4, 1, 2)
-        t = np.clip(((p - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
-        d = p - a - t[..., None] * ab
-        return (d * d).sum(-1).min(axis=(1, 2))
+    def point_to_edges(px, py, qx, qy):
+        ex, ey = qx[:, _NEXT_VERTEX] - qx, qy[:, _NEXT_VERTEX] - qy     # (k, 4) edges
+        sx, sy = qx[:, None, :], qy[:, None, :]                         # (k, 1, 4) starts
+        ex, ey = ex[:, None, :], ey[:, None, :]
+        dx, dy = px[:, :, None] - sx, py[:, :, None] - sy                # (k, 4, 4)
+        t = np.clip((dx * ex + dy * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+        dx, dy = dx - t * ex, dy - t * ey
+        return (dx * dx + dy * dy).min(axis=(1, 2))
 
-    dist = np.sqrt(np.minimum(point_to_edges(A, B), point_to_edges(B, A)))
+    dist = np.sqrt(np.minimum(point_to_edges(ax, ay, bx, by), point_to_edges(bx, by, ax, ay)))
     separated = np.zeros(len(A), dtype=bool)
-    for Q in (A, B):
-        e = Q[:, _NEXT_VERTEX] - Q
-        n = np.stack([-e[..., 1], e[..., 0]], -1)             # (k, 4, 2) edge normals
-        pa = np.einsum("kvd,knd->knv", A, n)
-        pb = np.einsum("kvd,knd->knv", B, n)
+    for qx, qy in ((ax, ay), (bx, by)):
+        nx, ny = -(qy[:, _NEXT_VERTEX] - qy)[:, :, None], (qx[:, _NEXT_VERTEX] - qx)[:, :, None]   # (k, 4, 1) normals
+        pa = ax[:, None, :] * nx + ay[:, None, :] * ny                  # (k, normal, vertex)
+        pb = bx[:, None, :] * nx + by[:, None, :] * ny
         separated |= ((pa.max(-1) < pb.min(-1) - 1e-9) | (pb.max(-1) < pa.min(-1) - 1e-9)).any(-1)
     return dist, ~separated
 
@@ -107,8 +109,9 @@ def _near_pairs(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> np.ndarray:
     they name, unchanged."""
     lo, hi, centre = poly.min(axis=2), poly.max(axis=2), poly.mean(axis=2)   # (n, P, 2)
     gap = np.maximum(np.maximum(lo[:, J] - hi[:, I], lo[:, I] - hi[:, J]), 0.0)   # (n, k, 2)
-    lower = np.sqrt((gap * gap).sum(-1))
-    upper = np.sqrt(((centre[:, I] - centre[:, J]) ** 2).sum(-1)).min(axis=1, keepdims=True)
+    lower = np.sqrt(gap[..., 0] * gap[..., 0] + gap[..., 1] * gap[..., 1])
+    step = centre[:, I] - centre[:, J]
+    upper = np.sqrt(step[..., 0] ** 2 + step[..., 1] ** 2).min(axis=1, keepdims=True)
     return lower <= upper + 1e-6
 
 
@@ -218,8 +221,9 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
         add("min_feature", True, f"thinnest hinge {thinnest:g} mm >= {d.min_feature_mm:g} mm")
 
     links = [p for p in parts if p.kind == "link"]
-    shortest = min(links, key=lambda p: np.linalg.norm(p.axis[1] - p.axis[0]))
-    llen = float(np.linalg.norm(shortest.axis[1] - shortest.axis[0]))
+    lengths = [math.hypot(*(p.axis[1] - p.axis[0])) for p in links]
+    llen = min(lengths)
+    shortest = links[lengths.index(llen)]
     add("hinge_fits", llen >= d.link_width_mm,
         f"hinge_length_mm = {d.hinge_length_mm:g}: leaves the {shortest.name} only {llen:.2f} mm "
         f"between its hinges; must be >= link_width_mm = {d.link_width_mm:g} mm")

@@ -21,6 +21,8 @@ STEM_RULE = "a file-name stem of letters, digits, '.', '_' and '-' not starting 
 
 def is_real(value) -> bool:
     """A finite real number (Python or numpy scalar; not a bool)."""
+    if type(value) is float or type(value) is int:  # the common case, without the ABC check
+        return math.isfinite(value)
     return (isinstance(value, numbers.Real) and not isinstance(value, bool)
             and type(value).__name__ != "bool_" and math.isfinite(float(value)))
 
