@@ -102,10 +102,9 @@ def output_names(spec, plots: bool) -> list[str]:
     names = ["sweep.nc", "sweep.csv", *(f"pareto-{h}.csv" for h in spec.hinge_sets)]
     if plots:
         # matplotlib is imported only when plots are made
-        from sensor.design_space.plots import PANELS
+        from sensor.design_space.plots import figure_names
 
-        stems = ["figure49", "hysteresis-vs-range", *PANELS] + (["robust_quality_ratio"] if spec.monte_carlo else [])
-        names += [f"{stem}.{fmt}" for stem in stems for fmt in ("png", "svg")]
+        names += [f"{stem}.{fmt}" for stem in figure_names(bool(spec.monte_carlo)) for fmt in ("png", "svg")]
     return names
 
 

@@ -19,16 +19,20 @@ from sensor.design_space.equal_range import SUMMARY_RANGES_N, admissible, basis_
 SAMPLES = {"A": (21.0, 34.0), "B": (22.0, 17.2)}
 SAMPLES_HINGES = "05-03"
 
-#: Axis labels of the ratio variables (the Monte-Carlo robust quality has no panel of its own).
-#: H is SE times the law's constant, so the strain-energy panel is also the hysteresis ratio.
-PANELS = {
+#: Axis labels of the ratio variables. H is SE times the law's constant, so the
+#: strain-energy panel is also the hysteresis ratio.
+LABELS = {
     "ratio_amplification": "amplification ratio A / A_basis",
     "ratio_k_out": "output stiffness ratio k_out / k_out,basis",
     "ratio_strain_energy": "strain energy (= hysteresis) ratio SE / SE_basis",
     "ratio_quality": "quality ratio (sensitivity/H) / basis",
     "equal_range_ratio_hysteresis": "H / H of the best basis body of the same range",
+    "robust_quality_ratio": "robust quality (10th percentile) / basis quality",
 }
-LABELS = {**PANELS, "robust_quality_ratio": "robust quality (10th percentile) / basis quality"}
+#: The rows of Figure 49 (the thesis' ratios; drawn there only, not again one by one).
+FIGURE49_ROWS = ("ratio_amplification", "ratio_k_out", "ratio_strain_energy")
+#: The ratios drawn as figures of their own (the robust quality with Monte Carlo only).
+RATIO_FIGURES = ("ratio_quality", "equal_range_ratio_hysteresis")
 
 
 #: Subplot spacing of the sweep figures, fixed: their texts are, and tight_layout costs a
@@ -80,18 +84,18 @@ def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
     ax.set_title(f"{LABELS.get(var, var)}\nhinge set {hinges}", fontsize=9)
 
 
-def figure_names(ds: xr.Dataset) -> list[str]:
-    """The stems of a sweep's figures, slowest first: the combined Figure 49, hysteresis
-    against range, one figure per ratio, and the robust quality with Monte Carlo."""
-    robust = ["robust_quality_ratio"] if any(k.startswith("mc_") for k in ds.data_vars) else []
-    return ["figure49", "hysteresis-vs-range", *PANELS, *robust]
+def figure_names(monte_carlo: bool) -> list[str]:
+    """The stems of a sweep's figures, slowest first: Figure 49, hysteresis against range,
+    the ratios of :data:`RATIO_FIGURES`, and the robust quality with Monte Carlo."""
+    return ["figure49", "hysteresis-vs-range", *RATIO_FIGURES, *(["robust_quality_ratio"] if monte_carlo else [])]
 
 
 def start_figures(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path, pool=None):
     """Every figure of a sweep (PNG and SVG), handed out to ``pool`` (a
     :class:`~sensor.design_space.execution.TaskPool`, one figure a task): returns the
     function that waits for the written paths (without a pool, it draws them)."""
-    jobs = [(name, ds, fronts, out_dir) for name in figure_names(ds)]
+    monte_carlo = any(k.startswith("mc_") for k in ds.data_vars)
+    jobs = [(name, ds, fronts, out_dir) for name in figure_names(monte_carlo)]
     if pool is None:
         return lambda: [path for job in jobs for path in draw_figure(job)]
     drawn = pool.start(draw_figure, jobs)
@@ -118,7 +122,7 @@ def plot_figure49(ds: xr.Dataset, out_dir: Path) -> list[Path]:
     hsets = [str(h) for h in ds["hinges"].values]
     fig49 = Figure(figsize=(5.2 * len(hsets), 13))
     axes = fig49.subplots(3, len(hsets), squeeze=False)
-    for r, var in enumerate(("ratio_amplification", "ratio_k_out", "ratio_strain_energy")):
+    for r, var in enumerate(FIGURE49_ROWS):
         for c, h in enumerate(hsets):
             plot_ratio_panel(axes[r, c], ds, var, h)
     fig49.suptitle("Proposed DACM over the basis body at the same phi1 (thesis Figure 49); "
