@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from geometry.errors import GeometryError
-from geometry.layout import Layout, make_layout, member_chain, side_members
+from geometry.layout import Layout, make_layout, side_members
 from geometry.params import MAX_LENGTH_MM, Design
 from geometry.validation import Number, is_integer, is_real
 
@@ -110,17 +110,21 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     """
     lay = layout or make_layout(design)
     d = design
-    mirror = np.array([-1.0, 1.0])
-    nodes: list[np.ndarray] = []
+    # scalar arithmetic on (x, y) tuples: a sweep builds thousands of models, and numpy's
+    # per-call cost on 2-vectors is most of the work (same operations, same results)
+    nodes: list[tuple[float, float]] = []
     members: list[tuple] = []  # (kind, start, end, thickness, hinge, name)
 
     def node(p) -> int:
-        nodes.append(np.asarray(p, dtype=float))
+        nodes.append((float(p[0]), float(p[1])))
         return len(nodes) - 1
 
-    base_l, base_r = node(lay.P0), node(lay.P0 * mirror)
+    def mirrored(p) -> tuple[float, float]:
+        return -float(p[0]), float(p[1])
+
+    base_l, base_r = node(lay.P0), node(mirrored(lay.P0))
     knee_lo_l, knee_hi_l = node(lay.P1), node(lay.P2)
-    knee_lo_r, knee_hi_r = node(lay.P1 * mirror), node(lay.P2 * mirror)
+    knee_lo_r, knee_hi_r = node(mirrored(lay.P1)), node(mirrored(lay.P2))
     inp = node(lay.input_point)  # first node of the input body: its reference node
     yc = lay.y_top + d.plate_thickness_mm / 2           # the top plate's centre line
     plate_mid = node((0.0, yc))
@@ -129,11 +133,9 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     k = root_depth_per_thickness
     plate_l = node((lay.P3[0] + lean[0] * k * d.hinge_thickness_mm[3], yc))
     plate_r = node((-lay.P3[0] - lean[0] * k * d.hinge_thickness_mm[4], yc))
-    top_l, top_r = node(lay.P3), node(lay.P3 * mirror)
-    anchor = {_key(p): i for i, p in
-              ((base_l, lay.P0), (base_r, lay.P0 * mirror), (knee_lo_l, lay.P1),
-               (knee_hi_l, lay.P2), (knee_lo_r, lay.P1 * mirror), (knee_hi_r, lay.P2 * mirror),
-               (top_l, lay.P3), (top_r, lay.P3 * mirror))}
+    top_l, top_r = node(lay.P3), node(mirrored(lay.P3))
+    anchor = {_key(nodes[i]): i for i in (base_l, base_r, knee_lo_l, knee_hi_l, knee_lo_r, knee_hi_r,
+                                          top_l, top_r)}
 
     # the top plate bends between the top hinges: two members along its centre line, with
     # rigid offsets up to the input point and down to the hinge roots on its underside;
@@ -149,26 +151,29 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         out = node(lay.output_point)
         members.append(("rigid", plate_mid, out, d.plate_thickness_mm, 0, "top plate"))
     else:
-        k_l, k_r = node(lay.K), node(lay.K * mirror)
-        q_l, q_r = node(lay.Q), node(lay.Q * mirror)
+        k_l, k_r = node(lay.K), node(mirrored(lay.K))
+        q_l, q_r = node(lay.Q), node(mirrored(lay.Q))
         out = node(lay.output_point)
-        anchor.update({_key(lay.K): k_l, _key(lay.K * mirror): k_r,
-                       _key(lay.Q): q_l, _key(lay.Q * mirror): q_r})
+        anchor.update({_key(nodes[i]): i for i in (k_l, k_r, q_l, q_r)})
         members += [("rigid", knee_lo_l, k_l, d.knee_width_mm, 0, "left knee"),
                     ("rigid", knee_lo_r, k_r, d.knee_width_mm, 0, "right knee"),
                     ("rigid", q_l, out, d.platform_thickness_mm, 0, "platform"),
                     ("rigid", out, q_r, d.platform_thickness_mm, 0, "platform")]
 
+    lh = d.hinge_length_mm
     for name, (a, b), h1, h2 in side_members(lay):
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
-        chain = member_chain(a, b, d.hinge_length_mm)
-        u = (b - a) / math.hypot(*(b - a))
+        (ax, ay), (bx, by) = a.tolist(), b.tolist()
+        length = math.hypot(bx - ax, by - ay)
+        ux, uy = (bx - ax) / length, (by - ay) / length
         ia = anchor[_key(a)]
         ib = anchor[_key(b)]
         # elastic roots: each hinge is clamped k t inside the body and inside the link it
-        # joins (rigid offsets carry the bodies out to those points)
-        ra, rb = node(a - u * k * t1), node(b + u * k * t2)
-        j1, j2 = node(chain[1] + u * k * t1), node(chain[2] - u * k * t2)
+        # joins (rigid offsets carry the bodies out to those points); the link's hinge ends
+        # are a + l_h u and b - l_h u (member_chain)
+        ra, rb = node((ax - ux * k * t1, ay - uy * k * t1)), node((bx + ux * k * t2, by + uy * k * t2))
+        j1 = node(((ax + ux * lh) + ux * k * t1, (ay + uy * lh) + uy * k * t1))
+        j2 = node(((bx - ux * lh) - ux * k * t2, (by - uy * lh) - uy * k * t2))
         members += [("rigid", ia, ra, t1, 0, f"hinge {h1} root"),
                     ("hinge", ra, j1, t1, h1, f"hinge {h1}"),
                     ("link", j1, j2, d.link_width_mm, 0, f"{name} link"),
