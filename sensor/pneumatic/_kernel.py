@@ -63,6 +63,32 @@ def pow075(x):
     return math.sqrt(x * math.sqrt(x))
 
 
+@njit(cache=True, fastmath=FAST)
+def interp1(x, xp, fp):
+    """np.interp(x, xp, fp) for a scalar x on a strictly increasing grid xp, without the array
+    allocations of the general one; the same arithmetic (and fast-math flags, as np.interp had
+    inside the stepper), so the same result."""
+    n = xp.size
+    if math.isnan(x):
+        return x
+    if x > xp[n - 1]:
+        return fp[n - 1]
+    if x < xp[0]:
+        return fp[0]
+    j = 0
+    while j < n - 1 and x >= xp[j + 1]:
+        j += 1
+    if j == n - 1 or xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    y = slope * (x - xp[j]) + fp[j]
+    if math.isnan(y):
+        y = slope * (x - xp[j + 1]) + fp[j + 1]
+        if math.isnan(y) and fp[j] == fp[j + 1]:
+            y = fp[j]
+    return y
+
+
 @njit(cache=True)
 def steady_coefficient(mdot, nu, bore, law, mu):
     """Steady friction coefficient f (1/s) on the mass flow (eq 54's f)."""
@@ -413,8 +439,8 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     spool = pc[SPOOL_ORDER] > 0.5
     for s in range(2):
         us = u if s == 0 else -u
-        cond[s, 0] = np.interp(us, grid, csup)
-        cond[s, 1] = np.interp(us, grid, cexh)
+        cond[s, 0] = interp1(us, grid, csup)
+        cond[s, 1] = interp1(us, grid, cexh)
     acc[A_MACH] = 0.0
     acc[A_MACH + 1] = 0.0
     for _ in range(nsub):
@@ -422,8 +448,8 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
             ua = spool_step(x, u, pc)
             for s in range(2):
                 us = ua if s == 0 else -ua
-                cond[s, 0] = np.interp(us, grid, csup)
-                cond[s, 1] = np.interp(us, grid, cexh)
+                cond[s, 0] = interp1(us, grid, csup)
+                cond[s, 1] = interp1(us, grid, cexh)
         else:
             x[ox + X_SPOOL] = u
         vol1, vol2, _, _ = chamber_volumes(x[0], x[1], pc)
@@ -532,27 +558,73 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     return head, first_bad(x, off, ps, vmax)
 
 
+# sensor kinds of the compiled readings (sens[i, 0]); sens[i, 1] noise, sens[i, 2] resolution or count
+SENSOR_NOISY, SENSOR_ENCODER = 0.0, 1.0
+N_REC = 7   # rec[k, ...]: valve flows 0-1, chamber flows 2-3, peak Mach 4-5, environment force 6
+
+
+@njit(cache=True)
+def sensor_read(value, kind, noise, resolution, draw):
+    """One reading of a NoisyQuantised (value + noise draw, rounded to the resolution) or an
+    Encoder (truncated to whole counts) sensor, the arithmetic of their ``read`` methods."""
+    if kind == SENSOR_ENCODER:
+        return math.floor(value / resolution) * resolution
+    y = value + noise * draw if noise > 0 else value
+    if resolution > 0:
+        y = math.floor(y / resolution + 0.5) * resolution
+    return y
+
+
+@njit(cache=True)
+def read_sensors(k, z, force, p1, p2, p3, p4, sens, noise, filt, meas):
+    """Row k of the readings meas[k] (MEASUREMENT_KEYS order) from the raw position, force and
+    pressures: the six sensors of ``sens`` with the pre-drawn noise[k], and the two
+    DifferentiatingFilter recursions (coefficients and state in filt[i] = a, b, x_prev, y) for
+    velocity and acceleration, started at k = 0."""
+    raw = (z, force, p1, p2, p3, p4)
+    for i in range(6):
+        meas[k, 2 + i if i > 0 else 0] = sensor_read(raw[i], sens[i, 0], sens[i, 1], sens[i, 2], noise[k, i])
+    x = meas[k, 0]
+    for i in range(2):
+        if k == 0:
+            filt[i, 2] = x
+        filt[i, 3] = filt[i, 0] * filt[i, 3] + filt[i, 1] * (x - filt[i, 2])
+        filt[i, 2] = x
+        x = filt[i, 3]
+        meas[k, 1 + i] = x
+
+
 @njit(cache=True)
 def control_period(k, x, u, nsub, h, dt, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax,
-                   work, p_read, states, valve_flow, chamber_flow, mach, force):
-    """One control period of the fixed-rate loop: :func:`advance` by nsub substeps at command u, then
-    record row k's mean valve and chamber flows (kg/s over dt) and peak Mach numbers, and row k + 1's
-    state and environment force.  Returns (head, first bad state or -1, first side whose peak Mach
-    exceeds ps[s, S_MACH_LIMIT] or -1, piston position, environment force, and the pressures at
-    the state indices p_read) - the values the sensors read next, as plain floats."""
+                   work, p_read, states, rec, commands, sens, noise, filt, meas):
+    """One control period of the fixed-rate loop: clip the command u to [-1, 1] into commands[k],
+    :func:`advance` by nsub substeps, then record row k's mean valve and chamber flows (kg/s over
+    dt) and peak Mach numbers in rec[k] (see N_REC) and row k + 1's state and environment force;
+    with compiled sensors (sens[0, 0] >= 0) also row k + 1's readings (:func:`read_sensors`).
+    Returns (head, first bad state or -1, first side whose peak Mach exceeds ps[s, S_MACH_LIMIT]
+    or -1, then the eight readings of row k + 1 - or, without compiled sensors, the piston
+    position, environment force and the pressures at the state indices p_read, for the Python
+    sensors, and two zeros)."""
+    u = min(1.0, max(-1.0, u))
+    commands[k] = u
     for i in range(A_FORCE):
         acc[i] = 0.0
     head, bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work)
     over = -1
     for s in range(2):
-        valve_flow[k, s] = acc[A_VALVE + s] / dt
-        chamber_flow[k, s] = acc[A_CHAMBER + s] / dt
-        mach[k, s] = acc[A_MACH + s]
+        rec[k, s] = acc[A_VALVE + s] / dt
+        rec[k, 2 + s] = acc[A_CHAMBER + s] / dt
+        rec[k, 4 + s] = acc[A_MACH + s]
         if over < 0 and acc[A_MACH + s] > ps[s, S_MACH_LIMIT]:
             over = s
     states[k + 1] = x
-    force[k + 1] = acc[A_FORCE]
-    return (head, bad, over, x[0], acc[A_FORCE], x[p_read[0]], x[p_read[1]], x[p_read[2]], x[p_read[3]])
+    rec[k + 1, 6] = acc[A_FORCE]
+    z, f, p1, p2, p3, p4 = x[0], acc[A_FORCE], x[p_read[0]], x[p_read[1]], x[p_read[2]], x[p_read[3]]
+    if sens[0, 0] < 0.0:
+        return (head, bad, over, z, f, p1, p2, p3, p4, 0.0, 0.0)
+    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens, noise, filt, meas)
+    m = meas[k + 1]
+    return (head, bad, over, m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7])
 
 
 @njit(cache=True)
@@ -580,13 +652,24 @@ def chamber_step(p, mass, flow, g, vo, vn, h, s, pc):
     return (p * vo**r + fac * (flow - g * p)) / (vn**r - fac * g)
 
 
+@njit(cache=True, fastmath=FAST)
+def _all_finite(x):
+    """True when every x[i] is finite: x * 0 is 0 for finite x and NaN otherwise (the fast-math
+    flags keep NaN and Inf, so this sum vectorises and still sees them)."""
+    total = 0.0
+    for i in range(x.size):
+        total += x[i] * 0.0
+    return total == 0.0
+
+
 @njit(cache=True)
 def first_bad(x, off, ps, vmax):
     """Index of the first non-finite or runaway state (-1 if none): pressures must stay in
     (0, 1e8) Pa and |v| below vmax."""
-    for i in range(x.size):
-        if not math.isfinite(x[i]):
-            return i
+    if not _all_finite(x):
+        for i in range(x.size):
+            if not math.isfinite(x[i]):
+                return i
     if abs(x[1]) > vmax:
         return 1
     for s in range(2):

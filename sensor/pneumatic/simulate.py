@@ -3,7 +3,10 @@
 A controller is any callable ``controller(t, measurements) -> u`` returning the valve
 command u in [-1, 1] (clipped), called at ``rate_Hz`` (default 1 kHz) with a dict of sensor
 readings (keys in :data:`MEASUREMENT_KEYS`, SI units).  The command is held between samples
-while the compiled stepper integrates the plant (see :mod:`._kernel`).
+while the compiled stepper integrates the plant (see :mod:`._kernel`).  Plain
+NoisyQuantised and Encoder sensors and the differentiating filters are read inside the compiled
+control period (the noise of the whole run drawn from each sensor's own stream in one batch:
+the same readings as their ``read`` methods); any other sensor object is read in Python.
 """
 from __future__ import annotations
 
@@ -17,7 +20,7 @@ from sensor.errors import SensorInputError, SolverError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.cylinder import FixedChambers
 from sensor.pneumatic.plant import CompiledPlant, Plant
-from sensor.pneumatic.sensors import DifferentiatingFilter, Sensors
+from sensor.pneumatic.sensors import DifferentiatingFilter, Encoder, NoisyQuantised, Sensors
 
 MEASUREMENT_KEYS = ("position_m", "velocity_m_s", "acceleration_m_s2", "force_N",
                     "pressure_valve_1_Pa", "pressure_valve_2_Pa",
@@ -67,50 +70,98 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     states = np.empty((nsteps + 1, cp.n_states))
     commands = np.full(nsteps + 1, np.nan)
     meas = np.empty((nsteps + 1, len(MEASUREMENT_KEYS)))
-    valve_flow = np.full((nsteps + 1, 2), np.nan)
-    chamber_flow = np.full((nsteps + 1, 2), np.nan)
-    mach = np.full((nsteps + 1, 2), np.nan)
-    force = np.empty(nsteps + 1)
-    vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
-    acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+    rec = np.full((nsteps + 1, K.N_REC), np.nan)   # flows, Mach numbers, force (see K.N_REC)
     p_valve = (int(cp.off[0, K.O_P]), int(cp.off[1, K.O_P]))
     p_ch = (p_valve[0] + cp.node_count(0) - 1, p_valve[1] + cp.node_count(1) - 1)
     p_read = np.array(p_valve + p_ch, np.int64)
     args = (pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid, cp.csup, cp.cexh)
     _, _, _, acc[K.A_FORCE] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
-    states[0], force[0] = x, acc[K.A_FORCE]
+    states[0], rec[0, 6] = x, acc[K.A_FORCE]
     raw = tuple(float(v) for v in (x[0], acc[K.A_FORCE], *x[p_read]))
-    read_pos, read_f = sensors.position.read, sensors.force.read
-    read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
-    read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
-    for k in range(nsteps + 1):
-        t = k * dt
-        z = read_pos(raw[0], t)
-        vz = vel_f.update(z)
-        m = (z, vz, acc_f.update(vz), read_f(raw[1], t), read_v1(raw[2], t), read_v2(raw[3], t),
-             read_c1(raw[4], t), read_c2(raw[5], t))
-        meas[k] = m
-        if progress is not None and (k % PROGRESS_PERIODS == 0 or k == nsteps):
-            progress(k, nsteps)
-        if k == nsteps:
-            break
-        u = controller(t, dict(zip(MEASUREMENT_KEYS, m)))
-        u = float(u)
-        if not math.isfinite(u):
-            raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
-        u = min(1.0, max(-1.0, u))
-        commands[k] = u
-        head, bad, over, *raw = K.control_period(k, x, u, nsub, h, dt, *args, ring, head, acc, MAX_VELOCITY_M_S,
-                                                 work, p_read, states, valve_flow, chamber_flow, mach, force)
-        if over >= 0:
-            raise SolverError(f"simulation stopped at t = {t + dt:.6g} s: the side {over + 1} line reached Mach "
-                              f"{mach[k, over]:.3g}, beyond the distributed line's range (subsonic flow up to "
-                              f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
-                              f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
-        if bad >= 0:
-            raise SensorInputError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
-                              f"{float(x[bad])!r} is not finite or outside its physical range")
-    return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch)
+    compiled = _compiled_sensors(sensors, nsteps + 1, dt)
+    if compiled is None:
+        sens, noise, filt = np.full((6, 3), -1.0), np.zeros((1, 6)), np.zeros((2, 4))
+        vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+        acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+        read_pos, read_f = sensors.position.read, sensors.force.read
+        read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
+        read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
+    else:
+        sens, noise, filt, noisy = compiled
+        K.read_sensors(0, *raw, sens, noise, filt, meas)
+        m = tuple(float(v) for v in meas[0])
+    kpa, kv, ka, kf, kv1, kv2, kc1, kc2 = MEASUREMENT_KEYS
+    k = 0
+    try:
+        for k in range(nsteps + 1):
+            t = k * dt
+            if compiled is None:
+                z = read_pos(raw[0], t)
+                vz = vel_f.update(z)
+                m = (z, vz, acc_f.update(vz), read_f(raw[1], t), read_v1(raw[2], t), read_v2(raw[3], t),
+                     read_c1(raw[4], t), read_c2(raw[5], t))
+                meas[k] = m
+            if progress is not None and (k % PROGRESS_PERIODS == 0 or k == nsteps):
+                progress(k, nsteps)
+            if k == nsteps:
+                break
+            u = float(controller(t, {kpa: m[0], kv: m[1], ka: m[2], kf: m[3], kv1: m[4], kv2: m[5], kc1: m[6],
+                                     kc2: m[7]}))
+            if not math.isfinite(u):
+                raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
+            out = K.control_period(k, x, u, nsub, h, dt, *args, ring, head, acc, MAX_VELOCITY_M_S, work, p_read,
+                                   states, rec, commands, sens, noise, filt, meas)
+            head = out[0]
+            if out[1] >= 0 or out[2] >= 0:
+                _stop(cp, x, rec, ps, k, t + dt, out[1], out[2])
+            if compiled is None:
+                raw = out[3:9]
+            else:
+                m = out[3:]
+    finally:
+        if compiled is not None:   # the sensors' noise streams advance by the reads made
+            for sensor in noisy:
+                sensor.consume(k + 1)
+    return _dataset(cp, states, commands, meas, rec, dt, nsub, h, p_valve, p_ch)
+
+
+SENSOR_NAMES = ("position", "force", "pressure_valve_1", "pressure_valve_2", "pressure_chamber_1",
+                "pressure_chamber_2")
+
+
+def _compiled_sensors(sensors: Sensors, reads: int, dt: float):
+    """(sens, noise, filt, noisy sensors) for :func:`K.read_sensors` when all six sensors are plain
+    NoisyQuantised or Encoder objects (their exact arithmetic, and the noise each would draw in
+    ``reads`` reads, drawn from its own stream in one batch), else None (Python reads)."""
+    objs = [getattr(sensors, name) for name in SENSOR_NAMES]
+    if not all(type(o) in (NoisyQuantised, Encoder) for o in objs):
+        return None
+    sens = np.zeros((6, 3))
+    noise = np.zeros((reads, 6))
+    noisy = []
+    for i, o in enumerate(objs):
+        if type(o) is Encoder:
+            sens[i] = (K.SENSOR_ENCODER, 0.0, o.count_m)
+            continue
+        sens[i] = (K.SENSOR_NOISY, o.noise, o.resolution)
+        if o.noise > 0:
+            noise[:, i] = o.upcoming(reads)
+            noisy.append(o)
+    filt = np.zeros((2, 4))
+    for i in range(2):
+        filt[i, :2] = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt).coefficients
+    return sens, noise, filt, noisy
+
+
+def _stop(cp, x, rec, ps, k, t, bad, over) -> None:
+    """Raise the error of a run stopped at control period k (time t at its end)."""
+    if over >= 0:
+        raise SolverError(f"simulation stopped at t = {t:.6g} s: the side {over + 1} line reached Mach "
+                          f"{rec[k, 4 + over]:.3g}, beyond the distributed line's range (subsonic flow up to "
+                          f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
+                          f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
+    raise SensorInputError(f"simulation stopped at t = {t:.6g} s: state {cp.labels[bad]} = "
+                           f"{float(x[bad])!r} is not finite or outside its physical range")
 
 
 def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
@@ -128,7 +179,8 @@ def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
     return round(steps)
 
 
-def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch):
+def _dataset(cp, states, commands, meas, rec, dt, nsub, h, p_valve, p_ch):
+    valve_flow, chamber_flow, mach, force = rec[:, 0:2], rec[:, 2:4], rec[:, 4:6], rec[:, 6]
     time = np.arange(states.shape[0]) * dt
     side = [1, 2]
     ds = xr.Dataset(
