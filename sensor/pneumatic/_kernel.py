@@ -6,7 +6,8 @@ unsteady-friction states y_{k,i} (kg/s) and the heat-transfer states w_{k,i} (Pa
 nodes.  Indices of the packed parameter vectors are the module constants below; the Python
 side (:mod:`sensor.pneumatic.plant`) builds them.
 
-Stepper (one substep h, command held): (1) piston, linearly implicit in (z, v); (2) element
+Stepper (one substep h, command held): (1) piston, staggered like the line (velocity kicked
+by the old forces with Newmark averaging of stiffness and damping, see :func:`piston_step`); (2) element
 flows, implicit in the steady friction and exponentially exact in the friction relaxations
 (for a flow varying linearly over the substep); (3) node pressures from the new flows with
 the valve flow linearised implicitly in the port pressure, the heat-transfer relaxations
@@ -37,6 +38,7 @@ N_COMMON = 43
 MAX_PRESSURE_PA = 1e8   # pressures beyond 1000 bar leave the models' range (runaway check)
 N_POLES = 8   # kernel poles per element (unsteady friction, heat transfer); fixed here, in this file,
               # so that changing it recompiles the cached stepper
+STOP_RESOLUTION = 0.15   # piston substep times the end stop's natural frequency while at a stop
 SPOOL_DAMPING = 1.0 / math.sqrt(2.0)   # second-order spool: -3 dB at the natural frequency
 # extra states after both side blocks: x[OX + s] chamber-node gas mass of side s (kg),
 # x[OX + 2] spool position (normalised command), x[OX + 3] its rate (1/s)
@@ -355,14 +357,19 @@ def spool_step(x, u, pc):
 
 
 @njit(cache=True)
-def piston_step(x, h, p_c1, p_c2, pc, mass_eff):
-    """One linearly implicit substep of the piston (z, v); Karnopp stick-slip when pc[STICK]:
-    at rest the piston stays stuck while the applied force is within the static friction F_s, and a
+def piston_step(x, h, kick, p_c1, p_c2, pc, mass_eff):
+    """One substep h of the piston (z, v), staggered like the line (leapfrog): the velocity is
+    kicked over ``kick`` (h, or h / 2 for the first kick of a run, which starts the velocity half
+    a substep ahead of the position) by the force at the old position and chamber pressures,
+    with the damping at the mean of old and new velocity and the stiffness at the average
+    position of Newmark's beta = 1/4 (unconditionally stable against the stiff end stops, second
+    order); then z advances by h at the new velocity.  Karnopp stick-slip when pc[STICK]: at rest
+    the piston stays stuck while the applied force is within the static friction F_s, and a
     sliding piston whose velocity would change sign in the step stops (sticks) instead."""
     z, v = x[0], x[1]
     if pc[STICK] < 0.5:
         f, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, True)
-        vn = (v + h / mass_eff * (f - fv * v)) / (1.0 - h / mass_eff * (fz * h + fv))
+        vn = v + kick / mass_eff * f / (1.0 - kick / mass_eff * (0.25 * fz * h + 0.5 * fv))
     else:
         fa, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, False)
         if v == 0.0:
@@ -372,7 +379,7 @@ def piston_step(x, h, p_c1, p_c2, pc, mass_eff):
         else:
             d = 1.0 if v > 0.0 else -1.0
         f = fa - d * sliding_friction(v, pc)
-        vn = (v + h / mass_eff * (f - fv * v)) / (1.0 - h / mass_eff * (fz * h + fv))
+        vn = v + kick / mass_eff * f / (1.0 - kick / mass_eff * (0.25 * fz * h + 0.5 * fv))
         if vn * d < 0.0:
             vn = 0.0
     x[1] = vn
@@ -380,7 +387,8 @@ def piston_step(x, h, p_c1, p_c2, pc, mass_eff):
 
 
 @njit(cache=True, fastmath=FAST)
-def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work):
+def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work,
+            start=False):
     """Advance the state x in place by nsub substeps of h seconds at valve command u.
 
     ring[s, :] holds past valve flows of a Richer-Hurmuzlu side (delay ps[s, S_DELAY] substeps,
@@ -388,8 +396,9 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     (kg) delivered into side s, acc[A_CHAMBER + s] the mass delivered into its chamber; acc[A_FORCE]
     is the environment force F_e (N) at the end of the step and acc[A_MACH + s] the largest Mach
     number |m| R T / (A P c) of side s's flow elements during the step.  work: scratch of shape (2, nodes, 6 K + 7),
-    zero on the first call (see :func:`work_array`).  Returns (head, index of the first non-finite
-    or runaway state or -1, see :func:`first_bad`)."""
+    zero on the first call (see :func:`work_array`).  start: this is the first step of a run (the
+    piston's first kick is a half kick, see :func:`piston_step`).  Returns (head, index of the
+    first non-finite or runaway state or -1, see :func:`first_bad`)."""
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
     kappa = (gam - 1.0) / gam
     c2 = gam * rt
@@ -458,9 +467,20 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
         # (1) piston
         if pc[FIXED] < 0.5:
             v = x[1]
-            piston_step(x, h, p_c1, p_c2, pc, mass_eff)
+            kick = 0.5 * h if start else h
+            start = False
+            zp = x[0] + h * x[1]
+            if min(x[0], zp) < 0.0 or max(x[0], zp) > pc[STROKE]:
+                # at an end stop: substeps resolving the stop's own oscillation
+                nst = max(1, math.ceil(h * math.sqrt(pc[KSTOP] / mass_eff) / STOP_RESOLUTION))
+                hs = h / nst
+                for r in range(nst):
+                    piston_step(x, hs, 0.5 * hs if (r == 0 and kick < h) else hs, p_c1, p_c2, pc, mass_eff)
+                kick = h - 0.5 * hs if kick < h else h
+            else:
+                piston_step(x, h, kick, p_c1, p_c2, pc, mass_eff)
             _, _, _, fe = piston_forces(x[0], x[1], p_c1, p_c2, pc, True)
-            acc[A_FORCE] = fe + (pc[ENV_M] * (x[1] - v) / h if pc[ENV_ATTACHED] > 0.5 else 0.0)
+            acc[A_FORCE] = fe + (pc[ENV_M] * (x[1] - v) / kick if pc[ENV_ATTACHED] > 0.5 else 0.0)
         nvol1, nvol2, _, _ = chamber_volumes(x[0], x[1], pc)
         leak = pc[KLEAK] * (p_c1 - p_c2) if pc[FIXED] < 0.5 else 0.0
         head = (head + 1) % nring
@@ -609,7 +629,8 @@ def control_period(k, x, u, nsub, h, dt, pc, ps, pv, off, kn, km, ka, grid, csup
     commands[k] = u
     for i in range(A_FORCE):
         acc[i] = 0.0
-    head, bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work)
+    head, bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work,
+                        k == 0)
     over = -1
     for s in range(2):
         rec[k, s] = acc[A_VALVE + s] / dt

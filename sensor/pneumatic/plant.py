@@ -21,7 +21,7 @@ from sensor.pneumatic.valve import FESTO_MPYE, Valve
 
 STABILITY_LIMIT = 2.0      # symplectic Euler: h omega_max < 2
 DEFAULT_SAFETY = 0.5       # automatic substep: h omega_max <= 1
-MAX_SUBSTEP_S = 1.0e-4     # accuracy cap on the automatic substep
+MAX_SUBSTEP_S = 2.5e-4     # accuracy cap on the automatic substep (tests/pneumatic/test_accuracy.py)
 MAX_SUBSTEPS = 1e6         # substeps per control period (a bound on the work of one period)
 
 
