@@ -578,9 +578,24 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     return head, first_bad(x, off, ps, vmax)
 
 
-# sensor kinds of the compiled readings (sens[i, 0]); sens[i, 1] noise, sens[i, 2] resolution or count
+# sensor kinds of the compiled readings (sens[i, 0], i < 6); sens[i, 1] noise, sens[i, 2] resolution
+# or count; sens[6 + i] = a, b, x_prev, y of the two differentiating filters
 SENSOR_NOISY, SENSOR_ENCODER = 0.0, 1.0
-N_REC = 7   # rec[k, ...]: valve flows 0-1, chamber flows 2-3, peak Mach 4-5, environment force 6
+# columns of the loop's record log[k, ...]: valve flows, chamber flows, peak Mach (two sides each),
+# environment force, command, the eight readings (MEASUREMENT_KEYS order)
+L_VALVE, L_CHAMBER, L_MACH, L_FORCE, L_COMMAND, L_MEAS = 0, 2, 4, 6, 7, 8
+N_LOG = 16
+N_HEAD = 6   # blob header: nsub, h, dt, vmax, node slots (pv's columns), valve grid points
+
+
+def pack_loop(nsub, h, dt, vmax, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, p_read):
+    """(blob, ints) for :func:`control_period`: every parameter of the loop in one float array and
+    the state offsets, the sensed state indices and the ring head in one integer array (fewer
+    arguments make the per-period call from Python cheaper)."""
+    head = np.array([nsub, h, dt, vmax, pv.shape[1], grid.size], float)
+    blob = np.concatenate([head, pc, ps.ravel(), pv.ravel(), kn, km, ka, grid, csup, cexh])
+    ints = np.concatenate([off.ravel(), p_read, [0]]).astype(np.int64)
+    return blob, ints
 
 
 @njit(cache=True)
@@ -596,56 +611,69 @@ def sensor_read(value, kind, noise, resolution, draw):
 
 
 @njit(cache=True)
-def read_sensors(k, z, force, p1, p2, p3, p4, sens, noise, filt, meas):
-    """Row k of the readings meas[k] (MEASUREMENT_KEYS order) from the raw position, force and
-    pressures: the six sensors of ``sens`` with the pre-drawn noise[k], and the two
-    DifferentiatingFilter recursions (coefficients and state in filt[i] = a, b, x_prev, y) for
-    velocity and acceleration, started at k = 0."""
+def read_sensors(k, z, force, p1, p2, p3, p4, sens, noise, log):
+    """Row k of the readings log[k, L_MEAS:] (MEASUREMENT_KEYS order) from the raw position, force
+    and pressures: the six sensors of ``sens`` with the pre-drawn noise[k], and the two
+    DifferentiatingFilter recursions (sens[6 + i] = a, b, x_prev, y) for velocity and
+    acceleration, started at k = 0."""
     raw = (z, force, p1, p2, p3, p4)
+    meas = log[k, L_MEAS:]
     for i in range(6):
-        meas[k, 2 + i if i > 0 else 0] = sensor_read(raw[i], sens[i, 0], sens[i, 1], sens[i, 2], noise[k, i])
-    x = meas[k, 0]
-    for i in range(2):
+        meas[2 + i if i > 0 else 0] = sensor_read(raw[i], sens[i, 0], sens[i, 1], sens[i, 2], noise[k, i])
+    x = meas[0]
+    for i in range(6, 8):
         if k == 0:
-            filt[i, 2] = x
-        filt[i, 3] = filt[i, 0] * filt[i, 3] + filt[i, 1] * (x - filt[i, 2])
-        filt[i, 2] = x
-        x = filt[i, 3]
-        meas[k, 1 + i] = x
+            sens[i, 2] = x
+        sens[i, 3] = sens[i, 0] * sens[i, 3] + sens[i, 1] * (x - sens[i, 2])
+        sens[i, 2] = x
+        x = sens[i, 3]
+        meas[i - 5] = x
 
 
 @njit(cache=True)
-def control_period(k, x, u, nsub, h, dt, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax,
-                   work, p_read, states, rec, commands, sens, noise, filt, meas):
-    """One control period of the fixed-rate loop: clip the command u to [-1, 1] into commands[k],
-    :func:`advance` by nsub substeps, then record row k's mean valve and chamber flows (kg/s over
-    dt) and peak Mach numbers in rec[k] (see N_REC) and row k + 1's state and environment force;
-    with compiled sensors (sens[0, 0] >= 0) also row k + 1's readings (:func:`read_sensors`).
-    Returns (head, first bad state or -1, first side whose peak Mach exceeds ps[s, S_MACH_LIMIT]
-    or -1, then the eight readings of row k + 1 - or, without compiled sensors, the piston
-    position, environment force and the pressures at the state indices p_read, for the Python
-    sensors, and two zeros)."""
+def control_period(k, u, x, blob, ints, ring, acc, work, states, log, sens, noise):
+    """One control period of the fixed-rate loop (parameters from :func:`pack_loop`): clip the
+    command u to [-1, 1] into log[k, L_COMMAND], :func:`advance` by nsub substeps, then record row
+    k's mean valve and chamber flows (kg/s over dt) and peak Mach numbers and row k + 1's state
+    and environment force; with compiled sensors (sens[0, 0] >= 0) also row k + 1's readings
+    (:func:`read_sensors`).  Returns (first bad state or -1, first side whose peak Mach exceeds
+    ps[s, S_MACH_LIMIT] or -1, then the eight readings of row k + 1 - or, without compiled
+    sensors, the piston position, environment force and the pressures at the state indices
+    p_read, for the Python sensors, and two zeros)."""
+    nsub, h, dt, vmax = int(blob[0]), blob[1], blob[2], blob[3]
+    nmax, ng = int(blob[4]), int(blob[5])
+    o = N_HEAD
+    pc = blob[o:o + N_COMMON]
+    o += N_COMMON
+    ps = blob[o:o + 2 * N_SIDE].reshape((2, N_SIDE))
+    o += 2 * N_SIDE
+    pv = blob[o:o + 2 * nmax].reshape((2, nmax))
+    o += 2 * nmax
+    kn, km, ka = blob[o:o + N_POLES], blob[o + N_POLES:o + 2 * N_POLES], blob[o + 2 * N_POLES:o + 3 * N_POLES]
+    o += 3 * N_POLES
+    grid, csup, cexh = blob[o:o + ng], blob[o + ng:o + 2 * ng], blob[o + 2 * ng:o + 3 * ng]
+    off = ints[:8].reshape((2, 4))
     u = min(1.0, max(-1.0, u))
-    commands[k] = u
+    log[k, L_COMMAND] = u
     for i in range(A_FORCE):
         acc[i] = 0.0
-    head, bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work,
-                        k == 0)
+    ints[12], bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, ints[12], acc, vmax,
+                            work, k == 0)
     over = -1
     for s in range(2):
-        rec[k, s] = acc[A_VALVE + s] / dt
-        rec[k, 2 + s] = acc[A_CHAMBER + s] / dt
-        rec[k, 4 + s] = acc[A_MACH + s]
+        log[k, L_VALVE + s] = acc[A_VALVE + s] / dt
+        log[k, L_CHAMBER + s] = acc[A_CHAMBER + s] / dt
+        log[k, L_MACH + s] = acc[A_MACH + s]
         if over < 0 and acc[A_MACH + s] > ps[s, S_MACH_LIMIT]:
             over = s
     states[k + 1] = x
-    rec[k + 1, 6] = acc[A_FORCE]
-    z, f, p1, p2, p3, p4 = x[0], acc[A_FORCE], x[p_read[0]], x[p_read[1]], x[p_read[2]], x[p_read[3]]
+    log[k + 1, L_FORCE] = acc[A_FORCE]
+    z, f, p1, p2, p3, p4 = x[0], acc[A_FORCE], x[ints[8]], x[ints[9]], x[ints[10]], x[ints[11]]
     if sens[0, 0] < 0.0:
-        return (head, bad, over, z, f, p1, p2, p3, p4, 0.0, 0.0)
-    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens, noise, filt, meas)
-    m = meas[k + 1]
-    return (head, bad, over, m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7])
+        return (bad, over, z, f, p1, p2, p3, p4, 0.0, 0.0)
+    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens, noise, log)
+    m = log[k + 1, L_MEAS:]
+    return (bad, over, m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7])
 
 
 @njit(cache=True)

@@ -64,33 +64,33 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     if pc[K.SPOOL_ORDER] > 0:
         pc[[K.SP_A00, K.SP_A01, K.SP_A10, K.SP_A11]] = cp.plant.valve.spool_step_matrices(h)
     ring = np.zeros((2, int(delays.max()) + 1))
-    head = 0
     acc = np.zeros(K.N_ACC)
     work = K.work_array(cp.pv, cp.kn)
     states = np.empty((nsteps + 1, cp.n_states))
-    commands = np.full(nsteps + 1, np.nan)
-    meas = np.empty((nsteps + 1, len(MEASUREMENT_KEYS)))
-    rec = np.full((nsteps + 1, K.N_REC), np.nan)   # flows, Mach numbers, force (see K.N_REC)
+    log = np.full((nsteps + 1, K.N_LOG), np.nan)   # flows, Mach, force, command, readings (K.L_...)
     p_valve = (int(cp.off[0, K.O_P]), int(cp.off[1, K.O_P]))
     p_ch = (p_valve[0] + cp.node_count(0) - 1, p_valve[1] + cp.node_count(1) - 1)
     p_read = np.array(p_valve + p_ch, np.int64)
-    args = (pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid, cp.csup, cp.cexh)
+    blob, ints = K.pack_loop(nsub, h, dt, MAX_VELOCITY_M_S, pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid,
+                             cp.csup, cp.cexh, p_read)
     _, _, _, acc[K.A_FORCE] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
-    states[0], rec[0, 6] = x, acc[K.A_FORCE]
+    states[0], log[0, K.L_FORCE] = x, acc[K.A_FORCE]
     raw = tuple(float(v) for v in (x[0], acc[K.A_FORCE], *x[p_read]))
     compiled = _compiled_sensors(sensors, nsteps + 1, dt)
     if compiled is None:
-        sens, noise, filt = np.full((6, 3), -1.0), np.zeros((1, 6)), np.zeros((2, 4))
+        sens, noise = np.full((8, 4), -1.0), np.zeros((1, 6))
         vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
         acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
         read_pos, read_f = sensors.position.read, sensors.force.read
         read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
         read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
     else:
-        sens, noise, filt, noisy = compiled
-        K.read_sensors(0, *raw, sens, noise, filt, meas)
-        m = tuple(float(v) for v in meas[0])
+        sens, noise, noisy = compiled
+        K.read_sensors(0, *raw, sens, noise, log)
+        m = tuple(float(v) for v in log[0, K.L_MEAS:])
+    meas = log[:, K.L_MEAS:]
     kpa, kv, ka, kf, kv1, kv2, kc1, kc2 = MEASUREMENT_KEYS
+    period = K.control_period
     k = 0
     try:
         for k in range(nsteps + 1):
@@ -109,20 +109,18 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
                                      kc2: m[7]}))
             if not math.isfinite(u):
                 raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
-            out = K.control_period(k, x, u, nsub, h, dt, *args, ring, head, acc, MAX_VELOCITY_M_S, work, p_read,
-                                   states, rec, commands, sens, noise, filt, meas)
-            head = out[0]
-            if out[1] >= 0 or out[2] >= 0:
-                _stop(cp, x, rec, ps, k, t + dt, out[1], out[2])
+            out = period(k, u, x, blob, ints, ring, acc, work, states, log, sens, noise)
+            if out[0] >= 0 or out[1] >= 0:
+                _stop(cp, x, log, ps, k, t + dt, out[0], out[1])
             if compiled is None:
-                raw = out[3:9]
+                raw = out[2:8]
             else:
-                m = out[3:]
+                m = out[2:]
     finally:
         if compiled is not None:   # the sensors' noise streams advance by the reads made
             for sensor in noisy:
                 sensor.consume(k + 1)
-    return _dataset(cp, states, commands, meas, rec, dt, nsub, h, p_valve, p_ch)
+    return _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch)
 
 
 SENSOR_NAMES = ("position", "force", "pressure_valve_1", "pressure_valve_2", "pressure_chamber_1",
@@ -130,34 +128,33 @@ SENSOR_NAMES = ("position", "force", "pressure_valve_1", "pressure_valve_2", "pr
 
 
 def _compiled_sensors(sensors: Sensors, reads: int, dt: float):
-    """(sens, noise, filt, noisy sensors) for :func:`K.read_sensors` when all six sensors are plain
+    """(sens, noise, noisy sensors) for :func:`K.read_sensors` when all six sensors are plain
     NoisyQuantised or Encoder objects (their exact arithmetic, and the noise each would draw in
     ``reads`` reads, drawn from its own stream in one batch), else None (Python reads)."""
     objs = [getattr(sensors, name) for name in SENSOR_NAMES]
     if not all(type(o) in (NoisyQuantised, Encoder) for o in objs):
         return None
-    sens = np.zeros((6, 3))
+    sens = np.zeros((8, 4))
     noise = np.zeros((reads, 6))
     noisy = []
     for i, o in enumerate(objs):
         if type(o) is Encoder:
-            sens[i] = (K.SENSOR_ENCODER, 0.0, o.count_m)
+            sens[i, :3] = (K.SENSOR_ENCODER, 0.0, o.count_m)
             continue
-        sens[i] = (K.SENSOR_NOISY, o.noise, o.resolution)
+        sens[i, :3] = (K.SENSOR_NOISY, o.noise, o.resolution)
         if o.noise > 0:
             noise[:, i] = o.upcoming(reads)
             noisy.append(o)
-    filt = np.zeros((2, 4))
-    for i in range(2):
-        filt[i, :2] = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt).coefficients
-    return sens, noise, filt, noisy
+    for i in (6, 7):
+        sens[i, :2] = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt).coefficients
+    return sens, noise, noisy
 
 
-def _stop(cp, x, rec, ps, k, t, bad, over) -> None:
+def _stop(cp, x, log, ps, k, t, bad, over) -> None:
     """Raise the error of a run stopped at control period k (time t at its end)."""
     if over >= 0:
         raise SolverError(f"simulation stopped at t = {t:.6g} s: the side {over + 1} line reached Mach "
-                          f"{rec[k, 4 + over]:.3g}, beyond the distributed line's range (subsonic flow up to "
+                          f"{log[k, K.L_MACH + over]:.3g}, beyond the distributed line's range (subsonic flow up to "
                           f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
                           f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
     raise SensorInputError(f"simulation stopped at t = {t:.6g} s: state {cp.labels[bad]} = "
@@ -179,8 +176,10 @@ def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
     return round(steps)
 
 
-def _dataset(cp, states, commands, meas, rec, dt, nsub, h, p_valve, p_ch):
-    valve_flow, chamber_flow, mach, force = rec[:, 0:2], rec[:, 2:4], rec[:, 4:6], rec[:, 6]
+def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
+    col = lambda j, n=1: np.ascontiguousarray(log[:, j:j + n] if n > 1 else log[:, j])  # noqa: E731
+    valve_flow, chamber_flow, mach = col(K.L_VALVE, 2), col(K.L_CHAMBER, 2), col(K.L_MACH, 2)
+    force, commands, meas = col(K.L_FORCE), col(K.L_COMMAND), col(K.L_MEAS, len(MEASUREMENT_KEYS))
     time = np.arange(states.shape[0]) * dt
     side = [1, 2]
     ds = xr.Dataset(
