@@ -177,9 +177,9 @@ def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
 
 
 def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
-    col = lambda j, n=1: np.ascontiguousarray(log[:, j:j + n] if n > 1 else log[:, j])  # noqa: E731
-    valve_flow, chamber_flow, mach = col(K.L_VALVE, 2), col(K.L_CHAMBER, 2), col(K.L_MACH, 2)
-    force, commands, meas = col(K.L_FORCE), col(K.L_COMMAND), col(K.L_MEAS, len(MEASUREMENT_KEYS))
+    cols = np.ascontiguousarray(log.T)   # one row per logged quantity
+    valve_flow, chamber_flow, mach = (cols[j:j + 2].T for j in (K.L_VALVE, K.L_CHAMBER, K.L_MACH))
+    force, commands = cols[K.L_FORCE], cols[K.L_COMMAND]
     time = np.arange(states.shape[0]) * dt
     side = [1, 2]
     ds = xr.Dataset(
@@ -201,14 +201,13 @@ def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
                                {"units": "1", "note": "the command itself for an ideal spool"}),
             "environment_force": ("time", force, {"units": "N"}),
             "command": ("time", commands, {"units": "1", "note": "valve command held over the period"}),
+            **{f"measured_{key}": ("time", cols[K.L_MEAS + j]) for j, key in enumerate(MEASUREMENT_KEYS)},
         },
         coords={"time": ("time", time, {"units": "s"}), "side": side, "state": cp.labels},
         attrs={"rate_Hz": 1.0 / dt, "substeps": nsub, "substep_s": h,
                "line_1": repr(cp.plant.line_1), "line_2": repr(cp.plant.line_2),
                "valve": cp.plant.valve.name, "supply_Pa": cp.plant.supply_Pa},
     )
-    for j, key in enumerate(MEASUREMENT_KEYS):
-        ds[f"measured_{key}"] = ("time", meas[:, j])
     return ds
 
 
