@@ -20,7 +20,12 @@ from sensor.errors import SensorInputError, SolverError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.cylinder import FixedChambers
 from sensor.pneumatic.plant import CompiledPlant, Plant
-from sensor.pneumatic.sensors import DifferentiatingFilter, Encoder, NoisyQuantised, Sensors
+from sensor.pneumatic.sensors import (
+    DifferentiatingFilter,
+    Encoder,
+    NoisyQuantised,
+    Sensors,
+)
 
 MEASUREMENT_KEYS = ("position_m", "velocity_m_s", "acceleration_m_s2", "force_N",
                     "pressure_valve_1_Pa", "pressure_valve_2_Pa",
