@@ -6,7 +6,8 @@ unsteady-friction states y_{k,i} (kg/s) and the heat-transfer states w_{k,i} (Pa
 nodes.  Indices of the packed parameter vectors are the module constants below; the Python
 side (:mod:`sensor.pneumatic.plant`) builds them.
 
-Stepper (one substep h, command held): (1) piston, linearly implicit in (z, v); (2) element
+Stepper (one substep h, command held): (1) piston, staggered like the line (velocity kicked
+by the old forces with Newmark averaging of stiffness and damping, see :func:`piston_step`); (2) element
 flows, implicit in the steady friction and exponentially exact in the friction relaxations
 (for a flow varying linearly over the substep); (3) node pressures from the new flows with
 the valve flow linearised implicitly in the port pressure, the heat-transfer relaxations
@@ -37,6 +38,7 @@ N_COMMON = 43
 MAX_PRESSURE_PA = 1e8   # pressures beyond 1000 bar leave the models' range (runaway check)
 N_POLES = 8   # kernel poles per element (unsteady friction, heat transfer); fixed here, in this file,
               # so that changing it recompiles the cached stepper
+STOP_RESOLUTION = 0.15   # piston substep times the end stop's natural frequency while at a stop
 SPOOL_DAMPING = 1.0 / math.sqrt(2.0)   # second-order spool: -3 dB at the natural frequency
 # extra states after both side blocks: x[OX + s] chamber-node gas mass of side s (kg),
 # x[OX + 2] spool position (normalised command), x[OX + 3] its rate (1/s)
@@ -61,6 +63,32 @@ N_ACC = 7
 def pow075(x):
     """x^0.75 for x >= 0 as sqrt(x sqrt(x)) (two square roots are much cheaper than pow)."""
     return math.sqrt(x * math.sqrt(x))
+
+
+@njit(cache=True, fastmath=FAST)
+def interp1(x, xp, fp):
+    """np.interp(x, xp, fp) for a scalar x on a strictly increasing grid xp, without the array
+    allocations of the general one; the same arithmetic (and fast-math flags, as np.interp had
+    inside the stepper), so the same result."""
+    n = xp.size
+    if math.isnan(x):
+        return x
+    if x > xp[n - 1]:
+        return fp[n - 1]
+    if x < xp[0]:
+        return fp[0]
+    j = 0
+    while j < n - 1 and x >= xp[j + 1]:
+        j += 1
+    if j == n - 1 or xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    y = slope * (x - xp[j]) + fp[j]
+    if math.isnan(y):
+        y = slope * (x - xp[j + 1]) + fp[j + 1]
+        if math.isnan(y) and fp[j] == fp[j + 1]:
+            y = fp[j]
+    return y
 
 
 @njit(cache=True)
@@ -329,14 +357,19 @@ def spool_step(x, u, pc):
 
 
 @njit(cache=True)
-def piston_step(x, h, p_c1, p_c2, pc, mass_eff):
-    """One linearly implicit substep of the piston (z, v); Karnopp stick-slip when pc[STICK]:
-    at rest the piston stays stuck while the applied force is within the static friction F_s, and a
+def piston_step(x, h, kick, p_c1, p_c2, pc, mass_eff):
+    """One substep h of the piston (z, v), staggered like the line (leapfrog): the velocity is
+    kicked over ``kick`` (h, or h / 2 for the first kick of a run, which starts the velocity half
+    a substep ahead of the position) by the force at the old position and chamber pressures,
+    with the damping at the mean of old and new velocity and the stiffness at the average
+    position of Newmark's beta = 1/4 (unconditionally stable against the stiff end stops, second
+    order); then z advances by h at the new velocity.  Karnopp stick-slip when pc[STICK]: at rest
+    the piston stays stuck while the applied force is within the static friction F_s, and a
     sliding piston whose velocity would change sign in the step stops (sticks) instead."""
     z, v = x[0], x[1]
     if pc[STICK] < 0.5:
         f, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, True)
-        vn = (v + h / mass_eff * (f - fv * v)) / (1.0 - h / mass_eff * (fz * h + fv))
+        vn = v + kick / mass_eff * f / (1.0 - kick / mass_eff * (0.25 * fz * h + 0.5 * fv))
     else:
         fa, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, False)
         if v == 0.0:
@@ -346,7 +379,7 @@ def piston_step(x, h, p_c1, p_c2, pc, mass_eff):
         else:
             d = 1.0 if v > 0.0 else -1.0
         f = fa - d * sliding_friction(v, pc)
-        vn = (v + h / mass_eff * (f - fv * v)) / (1.0 - h / mass_eff * (fz * h + fv))
+        vn = v + kick / mass_eff * f / (1.0 - kick / mass_eff * (0.25 * fz * h + 0.5 * fv))
         if vn * d < 0.0:
             vn = 0.0
     x[1] = vn
@@ -354,7 +387,8 @@ def piston_step(x, h, p_c1, p_c2, pc, mass_eff):
 
 
 @njit(cache=True, fastmath=FAST)
-def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work):
+def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work,
+            start=False):
     """Advance the state x in place by nsub substeps of h seconds at valve command u.
 
     ring[s, :] holds past valve flows of a Richer-Hurmuzlu side (delay ps[s, S_DELAY] substeps,
@@ -362,8 +396,9 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     (kg) delivered into side s, acc[A_CHAMBER + s] the mass delivered into its chamber; acc[A_FORCE]
     is the environment force F_e (N) at the end of the step and acc[A_MACH + s] the largest Mach
     number |m| R T / (A P c) of side s's flow elements during the step.  work: scratch of shape (2, nodes, 6 K + 7),
-    zero on the first call (see :func:`work_array`).  Returns (head, index of the first non-finite
-    or runaway state or -1, see :func:`first_bad`)."""
+    zero on the first call (see :func:`work_array`).  start: this is the first step of a run (the
+    piston's first kick is a half kick, see :func:`piston_step`).  Returns (head, index of the
+    first non-finite or runaway state or -1, see :func:`first_bad`)."""
     rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
     kappa = (gam - 1.0) / gam
     c2 = gam * rt
@@ -413,8 +448,8 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     spool = pc[SPOOL_ORDER] > 0.5
     for s in range(2):
         us = u if s == 0 else -u
-        cond[s, 0] = np.interp(us, grid, csup)
-        cond[s, 1] = np.interp(us, grid, cexh)
+        cond[s, 0] = interp1(us, grid, csup)
+        cond[s, 1] = interp1(us, grid, cexh)
     acc[A_MACH] = 0.0
     acc[A_MACH + 1] = 0.0
     for _ in range(nsub):
@@ -422,8 +457,8 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
             ua = spool_step(x, u, pc)
             for s in range(2):
                 us = ua if s == 0 else -ua
-                cond[s, 0] = np.interp(us, grid, csup)
-                cond[s, 1] = np.interp(us, grid, cexh)
+                cond[s, 0] = interp1(us, grid, csup)
+                cond[s, 1] = interp1(us, grid, cexh)
         else:
             x[ox + X_SPOOL] = u
         vol1, vol2, _, _ = chamber_volumes(x[0], x[1], pc)
@@ -432,9 +467,20 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
         # (1) piston
         if pc[FIXED] < 0.5:
             v = x[1]
-            piston_step(x, h, p_c1, p_c2, pc, mass_eff)
+            kick = 0.5 * h if start else h
+            start = False
+            zp = x[0] + h * x[1]
+            if min(x[0], zp) < 0.0 or max(x[0], zp) > pc[STROKE]:
+                # at an end stop: substeps resolving the stop's own oscillation
+                nst = max(1, math.ceil(h * math.sqrt(pc[KSTOP] / mass_eff) / STOP_RESOLUTION))
+                hs = h / nst
+                for r in range(nst):
+                    piston_step(x, hs, 0.5 * hs if (r == 0 and kick < h) else hs, p_c1, p_c2, pc, mass_eff)
+                kick = h - 0.5 * hs if kick < h else h
+            else:
+                piston_step(x, h, kick, p_c1, p_c2, pc, mass_eff)
             _, _, _, fe = piston_forces(x[0], x[1], p_c1, p_c2, pc, True)
-            acc[A_FORCE] = fe + (pc[ENV_M] * (x[1] - v) / h if pc[ENV_ATTACHED] > 0.5 else 0.0)
+            acc[A_FORCE] = fe + (pc[ENV_M] * (x[1] - v) / kick if pc[ENV_ATTACHED] > 0.5 else 0.0)
         nvol1, nvol2, _, _ = chamber_volumes(x[0], x[1], pc)
         leak = pc[KLEAK] * (p_c1 - p_c2) if pc[FIXED] < 0.5 else 0.0
         head = (head + 1) % nring
@@ -532,27 +578,102 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     return head, first_bad(x, off, ps, vmax)
 
 
+# sensor kinds of the compiled readings (sens[i, 0], i < 6); sens[i, 1] noise, sens[i, 2] resolution
+# or count; sens[6 + i] = a, b, x_prev, y of the two differentiating filters
+SENSOR_NOISY, SENSOR_ENCODER = 0.0, 1.0
+# columns of the loop's record log[k, ...]: valve flows, chamber flows, peak Mach (two sides each),
+# environment force, command, the eight readings (MEASUREMENT_KEYS order)
+L_VALVE, L_CHAMBER, L_MACH, L_FORCE, L_COMMAND, L_MEAS = 0, 2, 4, 6, 7, 8
+N_LOG = 16
+N_HEAD = 6   # blob header: nsub, h, dt, vmax, node slots (pv's columns), valve grid points
+
+
+def pack_loop(nsub, h, dt, vmax, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, p_read):
+    """(blob, ints) for :func:`control_period`: every parameter of the loop in one float array and
+    the state offsets, the sensed state indices and the ring head in one integer array (fewer
+    arguments make the per-period call from Python cheaper)."""
+    head = np.array([nsub, h, dt, vmax, pv.shape[1], grid.size], float)
+    blob = np.concatenate([head, pc, ps.ravel(), pv.ravel(), kn, km, ka, grid, csup, cexh])
+    ints = np.concatenate([off.ravel(), p_read, [0]]).astype(np.int64)
+    return blob, ints
+
+
 @njit(cache=True)
-def control_period(k, x, u, nsub, h, dt, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax,
-                   work, p_read, states, valve_flow, chamber_flow, mach, force):
-    """One control period of the fixed-rate loop: :func:`advance` by nsub substeps at command u, then
-    record row k's mean valve and chamber flows (kg/s over dt) and peak Mach numbers, and row k + 1's
-    state and environment force.  Returns (head, first bad state or -1, first side whose peak Mach
-    exceeds ps[s, S_MACH_LIMIT] or -1, piston position, environment force, and the pressures at
-    the state indices p_read) - the values the sensors read next, as plain floats."""
+def sensor_read(value, kind, noise, resolution, draw):
+    """One reading of a NoisyQuantised (value + noise draw, rounded to the resolution) or an
+    Encoder (truncated to whole counts) sensor, the arithmetic of their ``read`` methods."""
+    if kind == SENSOR_ENCODER:
+        return math.floor(value / resolution) * resolution
+    y = value + noise * draw if noise > 0 else value
+    if resolution > 0:
+        y = math.floor(y / resolution + 0.5) * resolution
+    return y
+
+
+@njit(cache=True)
+def read_sensors(k, z, force, p1, p2, p3, p4, sens, noise, log):
+    """Row k of the readings log[k, L_MEAS:] (MEASUREMENT_KEYS order) from the raw position, force
+    and pressures: the six sensors of ``sens`` with the pre-drawn noise[k], and the two
+    DifferentiatingFilter recursions (sens[6 + i] = a, b, x_prev, y) for velocity and
+    acceleration, started at k = 0."""
+    raw = (z, force, p1, p2, p3, p4)
+    meas = log[k, L_MEAS:]
+    for i in range(6):
+        meas[2 + i if i > 0 else 0] = sensor_read(raw[i], sens[i, 0], sens[i, 1], sens[i, 2], noise[k, i])
+    x = meas[0]
+    for i in range(6, 8):
+        if k == 0:
+            sens[i, 2] = x
+        sens[i, 3] = sens[i, 0] * sens[i, 3] + sens[i, 1] * (x - sens[i, 2])
+        sens[i, 2] = x
+        x = sens[i, 3]
+        meas[i - 5] = x
+
+
+@njit(cache=True)
+def control_period(k, u, x, blob, ints, ring, acc, work, states, log, sens, noise):
+    """One control period of the fixed-rate loop (parameters from :func:`pack_loop`): clip the
+    command u to [-1, 1] into log[k, L_COMMAND], :func:`advance` by nsub substeps, then record row
+    k's mean valve and chamber flows (kg/s over dt) and peak Mach numbers and row k + 1's state
+    and environment force; with compiled sensors (sens[0, 0] >= 0) also row k + 1's readings
+    (:func:`read_sensors`).  Returns (first bad state or -1, first side whose peak Mach exceeds
+    ps[s, S_MACH_LIMIT] or -1, then the eight readings of row k + 1 - or, without compiled
+    sensors, the piston position, environment force and the pressures at the state indices
+    p_read, for the Python sensors, and two zeros)."""
+    nsub, h, dt, vmax = int(blob[0]), blob[1], blob[2], blob[3]
+    nmax, ng = int(blob[4]), int(blob[5])
+    o = N_HEAD
+    pc = blob[o:o + N_COMMON]
+    o += N_COMMON
+    ps = blob[o:o + 2 * N_SIDE].reshape((2, N_SIDE))
+    o += 2 * N_SIDE
+    pv = blob[o:o + 2 * nmax].reshape((2, nmax))
+    o += 2 * nmax
+    kn, km, ka = blob[o:o + N_POLES], blob[o + N_POLES:o + 2 * N_POLES], blob[o + 2 * N_POLES:o + 3 * N_POLES]
+    o += 3 * N_POLES
+    grid, csup, cexh = blob[o:o + ng], blob[o + ng:o + 2 * ng], blob[o + 2 * ng:o + 3 * ng]
+    off = ints[:8].reshape((2, 4))
+    u = min(1.0, max(-1.0, u))
+    log[k, L_COMMAND] = u
     for i in range(A_FORCE):
         acc[i] = 0.0
-    head, bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work)
+    ints[12], bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, ints[12], acc, vmax,
+                            work, k == 0)
     over = -1
     for s in range(2):
-        valve_flow[k, s] = acc[A_VALVE + s] / dt
-        chamber_flow[k, s] = acc[A_CHAMBER + s] / dt
-        mach[k, s] = acc[A_MACH + s]
+        log[k, L_VALVE + s] = acc[A_VALVE + s] / dt
+        log[k, L_CHAMBER + s] = acc[A_CHAMBER + s] / dt
+        log[k, L_MACH + s] = acc[A_MACH + s]
         if over < 0 and acc[A_MACH + s] > ps[s, S_MACH_LIMIT]:
             over = s
     states[k + 1] = x
-    force[k + 1] = acc[A_FORCE]
-    return (head, bad, over, x[0], acc[A_FORCE], x[p_read[0]], x[p_read[1]], x[p_read[2]], x[p_read[3]])
+    log[k + 1, L_FORCE] = acc[A_FORCE]
+    z, f, p1, p2, p3, p4 = x[0], acc[A_FORCE], x[ints[8]], x[ints[9]], x[ints[10]], x[ints[11]]
+    if sens[0, 0] < 0.0:
+        return (bad, over, z, f, p1, p2, p3, p4, 0.0, 0.0)
+    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens, noise, log)
+    m = log[k + 1, L_MEAS:]
+    return (bad, over, m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7])
 
 
 @njit(cache=True)
@@ -580,13 +701,24 @@ def chamber_step(p, mass, flow, g, vo, vn, h, s, pc):
     return (p * vo**r + fac * (flow - g * p)) / (vn**r - fac * g)
 
 
+@njit(cache=True, fastmath=FAST)
+def _all_finite(x):
+    """True when every x[i] is finite: x * 0 is 0 for finite x and NaN otherwise (the fast-math
+    flags keep NaN and Inf, so this sum vectorises and still sees them)."""
+    total = 0.0
+    for i in range(x.size):
+        total += x[i] * 0.0
+    return total == 0.0
+
+
 @njit(cache=True)
 def first_bad(x, off, ps, vmax):
     """Index of the first non-finite or runaway state (-1 if none): pressures must stay in
     (0, 1e8) Pa and |v| below vmax."""
-    for i in range(x.size):
-        if not math.isfinite(x[i]):
-            return i
+    if not _all_finite(x):
+        for i in range(x.size):
+            if not math.isfinite(x[i]):
+                return i
     if abs(x[1]) > vmax:
         return 1
     for s in range(2):

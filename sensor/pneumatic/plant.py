@@ -21,7 +21,8 @@ from sensor.pneumatic.valve import FESTO_MPYE, Valve
 
 STABILITY_LIMIT = 2.0      # symplectic Euler: h omega_max < 2
 DEFAULT_SAFETY = 0.5       # automatic substep: h omega_max <= 1
-MAX_SUBSTEP_S = 1.0e-4     # accuracy cap on the automatic substep
+MAX_SUBSTEP_S = 1.0e-4     # accuracy cap on the automatic substep: lumped lines only
+MAX_SUBSTEP_DISTRIBUTED_S = 2.5e-4   # ... and with a distributed line (tests/pneumatic/test_accuracy.py)
 MAX_SUBSTEPS = 1e6         # substeps per control period (a bound on the work of one period)
 
 
@@ -220,14 +221,17 @@ class CompiledPlant:
     def substeps(self, dt_s: float, substep_s: float | None = None) -> tuple[int, float]:
         """(count, length) of the substeps that cover one control period dt_s.
 
-        Automatic: h <= min(1 / omega_max, MAX_SUBSTEP_S).  A requested ``substep_s`` above the
-        stability limit 2 / omega_max raises SensorError."""
+        Automatic: h <= min(1 / omega_max, cap), the cap MAX_SUBSTEP_DISTRIBUTED_S when a side has a
+        distributed line (the lumped parts' error at that substep stays far below the line's own)
+        and MAX_SUBSTEP_S otherwise.  A requested ``substep_s`` above the stability limit
+        2 / omega_max raises SensorError."""
         if not (math.isfinite(dt_s) and dt_s > 0):
             raise SensorInputError(f"time step dt_s = {dt_s!r}: must be a positive finite number")
         wmax = self.omega_max()
         limit = STABILITY_LIMIT / wmax if wmax > 0 else math.inf
         if substep_s is None:
-            h_target = min(DEFAULT_SAFETY * limit, MAX_SUBSTEP_S)
+            distributed = any(isinstance(line, Distributed) for line in (self.plant.line_1, self.plant.line_2))
+            h_target = min(DEFAULT_SAFETY * limit, MAX_SUBSTEP_DISTRIBUTED_S if distributed else MAX_SUBSTEP_S)
         else:
             h_target = float(substep_s)
             if not (math.isfinite(h_target) and h_target > 0):

@@ -3,7 +3,10 @@
 A controller is any callable ``controller(t, measurements) -> u`` returning the valve
 command u in [-1, 1] (clipped), called at ``rate_Hz`` (default 1 kHz) with a dict of sensor
 readings (keys in :data:`MEASUREMENT_KEYS`, SI units).  The command is held between samples
-while the compiled stepper integrates the plant (see :mod:`._kernel`).
+while the compiled stepper integrates the plant (see :mod:`._kernel`).  Plain
+NoisyQuantised and Encoder sensors and the differentiating filters are read inside the compiled
+control period (the noise of the whole run drawn from each sensor's own stream in one batch:
+the same readings as their ``read`` methods); any other sensor object is read in Python.
 """
 from __future__ import annotations
 
@@ -17,7 +20,12 @@ from sensor.errors import SensorInputError, SolverError
 from sensor.pneumatic import _kernel as K
 from sensor.pneumatic.cylinder import FixedChambers
 from sensor.pneumatic.plant import CompiledPlant, Plant
-from sensor.pneumatic.sensors import DifferentiatingFilter, Sensors
+from sensor.pneumatic.sensors import (
+    DifferentiatingFilter,
+    Encoder,
+    NoisyQuantised,
+    Sensors,
+)
 
 MEASUREMENT_KEYS = ("position_m", "velocity_m_s", "acceleration_m_s2", "force_N",
                     "pressure_valve_1_Pa", "pressure_valve_2_Pa",
@@ -61,56 +69,101 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     if pc[K.SPOOL_ORDER] > 0:
         pc[[K.SP_A00, K.SP_A01, K.SP_A10, K.SP_A11]] = cp.plant.valve.spool_step_matrices(h)
     ring = np.zeros((2, int(delays.max()) + 1))
-    head = 0
     acc = np.zeros(K.N_ACC)
     work = K.work_array(cp.pv, cp.kn)
     states = np.empty((nsteps + 1, cp.n_states))
-    commands = np.full(nsteps + 1, np.nan)
-    meas = np.empty((nsteps + 1, len(MEASUREMENT_KEYS)))
-    valve_flow = np.full((nsteps + 1, 2), np.nan)
-    chamber_flow = np.full((nsteps + 1, 2), np.nan)
-    mach = np.full((nsteps + 1, 2), np.nan)
-    force = np.empty(nsteps + 1)
-    vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
-    acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+    log = np.full((nsteps + 1, K.N_LOG), np.nan)   # flows, Mach, force, command, readings (K.L_...)
     p_valve = (int(cp.off[0, K.O_P]), int(cp.off[1, K.O_P]))
     p_ch = (p_valve[0] + cp.node_count(0) - 1, p_valve[1] + cp.node_count(1) - 1)
     p_read = np.array(p_valve + p_ch, np.int64)
-    args = (pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid, cp.csup, cp.cexh)
+    blob, ints = K.pack_loop(nsub, h, dt, MAX_VELOCITY_M_S, pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid,
+                             cp.csup, cp.cexh, p_read)
     _, _, _, acc[K.A_FORCE] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
-    states[0], force[0] = x, acc[K.A_FORCE]
+    states[0], log[0, K.L_FORCE] = x, acc[K.A_FORCE]
     raw = tuple(float(v) for v in (x[0], acc[K.A_FORCE], *x[p_read]))
-    read_pos, read_f = sensors.position.read, sensors.force.read
-    read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
-    read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
-    for k in range(nsteps + 1):
-        t = k * dt
-        z = read_pos(raw[0], t)
-        vz = vel_f.update(z)
-        m = (z, vz, acc_f.update(vz), read_f(raw[1], t), read_v1(raw[2], t), read_v2(raw[3], t),
-             read_c1(raw[4], t), read_c2(raw[5], t))
-        meas[k] = m
-        if progress is not None and (k % PROGRESS_PERIODS == 0 or k == nsteps):
-            progress(k, nsteps)
-        if k == nsteps:
-            break
-        u = controller(t, dict(zip(MEASUREMENT_KEYS, m)))
-        u = float(u)
-        if not math.isfinite(u):
-            raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
-        u = min(1.0, max(-1.0, u))
-        commands[k] = u
-        head, bad, over, *raw = K.control_period(k, x, u, nsub, h, dt, *args, ring, head, acc, MAX_VELOCITY_M_S,
-                                                 work, p_read, states, valve_flow, chamber_flow, mach, force)
-        if over >= 0:
-            raise SolverError(f"simulation stopped at t = {t + dt:.6g} s: the side {over + 1} line reached Mach "
-                              f"{mach[k, over]:.3g}, beyond the distributed line's range (subsonic flow up to "
-                              f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
-                              f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
-        if bad >= 0:
-            raise SensorInputError(f"simulation stopped at t = {t + dt:.6g} s: state {cp.labels[bad]} = "
-                              f"{float(x[bad])!r} is not finite or outside its physical range")
-    return _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch)
+    compiled = _compiled_sensors(sensors, nsteps + 1, dt)
+    if compiled is None:
+        sens, noise = np.full((8, 4), -1.0), np.zeros((1, 6))
+        vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+        acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
+        read_pos, read_f = sensors.position.read, sensors.force.read
+        read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
+        read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
+    else:
+        sens, noise, noisy = compiled
+        K.read_sensors(0, *raw, sens, noise, log)
+        m = tuple(float(v) for v in log[0, K.L_MEAS:])
+    meas = log[:, K.L_MEAS:]
+    kpa, kv, ka, kf, kv1, kv2, kc1, kc2 = MEASUREMENT_KEYS
+    period = K.control_period
+    k = 0
+    try:
+        for k in range(nsteps + 1):
+            t = k * dt
+            if compiled is None:
+                z = read_pos(raw[0], t)
+                vz = vel_f.update(z)
+                m = (z, vz, acc_f.update(vz), read_f(raw[1], t), read_v1(raw[2], t), read_v2(raw[3], t),
+                     read_c1(raw[4], t), read_c2(raw[5], t))
+                meas[k] = m
+            if progress is not None and (k % PROGRESS_PERIODS == 0 or k == nsteps):
+                progress(k, nsteps)
+            if k == nsteps:
+                break
+            u = float(controller(t, {kpa: m[0], kv: m[1], ka: m[2], kf: m[3], kv1: m[4], kv2: m[5], kc1: m[6],
+                                     kc2: m[7]}))
+            if not math.isfinite(u):
+                raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
+            out = period(k, u, x, blob, ints, ring, acc, work, states, log, sens, noise)
+            if out[0] >= 0 or out[1] >= 0:
+                _stop(cp, x, log, ps, k, t + dt, out[0], out[1])
+            if compiled is None:
+                raw = out[2:8]
+            else:
+                m = out[2:]
+    finally:
+        if compiled is not None:   # the sensors' noise streams advance by the reads made
+            for sensor in noisy:
+                sensor.consume(k + 1)
+    return _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch)
+
+
+SENSOR_NAMES = ("position", "force", "pressure_valve_1", "pressure_valve_2", "pressure_chamber_1",
+                "pressure_chamber_2")
+
+
+def _compiled_sensors(sensors: Sensors, reads: int, dt: float):
+    """(sens, noise, noisy sensors) for :func:`K.read_sensors` when all six sensors are plain
+    NoisyQuantised or Encoder objects (their exact arithmetic, and the noise each would draw in
+    ``reads`` reads, drawn from its own stream in one batch), else None (Python reads)."""
+    objs = [getattr(sensors, name) for name in SENSOR_NAMES]
+    if not all(type(o) in (NoisyQuantised, Encoder) for o in objs):
+        return None
+    sens = np.zeros((8, 4))
+    noise = np.zeros((reads, 6))
+    noisy = []
+    for i, o in enumerate(objs):
+        if type(o) is Encoder:
+            sens[i, :3] = (K.SENSOR_ENCODER, 0.0, o.count_m)
+            continue
+        sens[i, :3] = (K.SENSOR_NOISY, o.noise, o.resolution)
+        if o.noise > 0:
+            noise[:, i] = o.upcoming(reads)
+            noisy.append(o)
+    for i in (6, 7):
+        sens[i, :2] = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt).coefficients
+    return sens, noise, noisy
+
+
+def _stop(cp, x, log, ps, k, t, bad, over) -> None:
+    """Raise the error of a run stopped at control period k (time t at its end)."""
+    if over >= 0:
+        raise SolverError(f"simulation stopped at t = {t:.6g} s: the side {over + 1} line reached Mach "
+                          f"{log[k, K.L_MACH + over]:.3g}, beyond the distributed line's range (subsonic flow up to "
+                          f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
+                          f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
+    raise SensorInputError(f"simulation stopped at t = {t:.6g} s: state {cp.labels[bad]} = "
+                           f"{float(x[bad])!r} is not finite or outside its physical range")
 
 
 def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
@@ -128,7 +181,10 @@ def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
     return round(steps)
 
 
-def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, dt, nsub, h, p_valve, p_ch):
+def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
+    cols = np.ascontiguousarray(log.T)   # one row per logged quantity
+    valve_flow, chamber_flow, mach = (cols[j:j + 2].T for j in (K.L_VALVE, K.L_CHAMBER, K.L_MACH))
+    force, commands = cols[K.L_FORCE], cols[K.L_COMMAND]
     time = np.arange(states.shape[0]) * dt
     side = [1, 2]
     ds = xr.Dataset(
@@ -150,14 +206,13 @@ def _dataset(cp, states, commands, meas, valve_flow, chamber_flow, mach, force, 
                                {"units": "1", "note": "the command itself for an ideal spool"}),
             "environment_force": ("time", force, {"units": "N"}),
             "command": ("time", commands, {"units": "1", "note": "valve command held over the period"}),
+            **{f"measured_{key}": ("time", cols[K.L_MEAS + j]) for j, key in enumerate(MEASUREMENT_KEYS)},
         },
         coords={"time": ("time", time, {"units": "s"}), "side": side, "state": cp.labels},
         attrs={"rate_Hz": 1.0 / dt, "substeps": nsub, "substep_s": h,
                "line_1": repr(cp.plant.line_1), "line_2": repr(cp.plant.line_2),
                "valve": cp.plant.valve.name, "supply_Pa": cp.plant.supply_Pa},
     )
-    for j, key in enumerate(MEASUREMENT_KEYS):
-        ds[f"measured_{key}"] = ("time", meas[:, j])
     return ds
 
 

@@ -14,7 +14,7 @@ from sensor.pneumatic.cylinder import (
 )
 from sensor.pneumatic.lines import DeadVolume, Distributed, TwoVolume
 from sensor.pneumatic.plant import Plant
-from sensor.pneumatic.sensors import Encoder, Sensors, ideal_sensors
+from sensor.pneumatic.sensors import Encoder, NoisyQuantised, Sensors, ideal_sensors
 from sensor.pneumatic.simulate import MEASUREMENT_KEYS, constant_command, simulate
 from sensor.pneumatic.valve import ENFIELD_LH05
 
@@ -121,6 +121,48 @@ def test_default_sensors_are_noisy_and_quantised():
     assert 50.0 < np.std(err) < 500.0
     assert np.allclose(ds.measured_pressure_chamber_1_Pa.values / 50.0,
                        np.round(ds.measured_pressure_chamber_1_Pa.values / 50.0))
+
+
+def test_compiled_sensor_readings_equal_the_sensor_objects_reads():
+    # Plain NoisyQuantised / Encoder sensors are read inside the compiled loop from noise drawn
+    # in one batch; subclasses (the same read methods, but not the exact types) take the Python
+    # reads.  Both must give identical readings, commands and states - no tolerance, the same
+    # arithmetic on the same noise stream - and leave the streams where the reads leave them: a
+    # second run with the same sensor objects continues identically, and so does a run stopped
+    # by the controller after 5 periods.
+    class Pot(NoisyQuantised):
+        pass
+
+    class Enc(Encoder):
+        pass
+
+    def sensor_set(noisy, encoder):
+        # force, then pressures at the valve ports and chambers; position from the encoder
+        s = Sensors(encoder(1e-5), *(noisy(noise, resolution, seed) for noise, resolution, seed in
+                                     ((0.02, 0.005, 2), (200.0, 50.0, 3), (200.0, 0.0, 4), (0.0, 50.0, 5),
+                                      (100.0, 50.0, 6))))
+        return s
+
+    def pi(t, m):
+        return 0.002 * (5.0 - m["force_N"]) + 0.1 * m["velocity_m_s"]
+
+    def stop_after_5(t, m):
+        if t > 0.0045:
+            raise RuntimeError("stop")
+        return 0.3
+
+    cp = Plant(line_1=TwoVolume(2.0), line_2=Distributed(2.0, segments=4),
+               environment=spring_contact(2000.0, 0.026)).compile()
+    runs = []
+    for sensors in (sensor_set(NoisyQuantised, Encoder), sensor_set(Pot, Enc)):
+        first = simulate(cp, pi, 0.05, sensors=sensors)
+        with pytest.raises(RuntimeError, match="stop"):
+            simulate(cp, stop_after_5, 0.05, sensors=sensors)
+        runs.append((first, simulate(cp, pi, 0.03, sensors=sensors)))
+    for a, b in zip(*runs):
+        for var in a.data_vars:
+            assert np.array_equal(a[var].values, b[var].values, equal_nan=True), var
+    assert np.std(runs[0][0].measured_force_N.values - runs[0][0].environment_force.values) > 0.005
 
 
 def test_non_finite_command_and_runaway_states_stop_with_a_named_error():
