@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sensor.errors import SensorError
+from sensor.errors import SensorError, SensorInputError
 from sensor.pneumatic.controllers import (
     Impedance,
     command_for,
@@ -310,6 +310,20 @@ def test_plant_and_estimators_start_from_the_atmosphere():
     # the line model starts from the (noisy) valve-port readings: within the transducers' noise
     assert abs(float(first.line_model_pressure_1_Pa) - atm) < 1e3
     assert abs(float(first.environment_force)) < 1e-9
+
+
+@pytest.mark.parametrize("substep_s", [None, 5e-5])
+def test_setup_substep_reaches_the_plant(substep_s):
+    # None: the plant's automatic substep (0.25 ms cap with a distributed line); a value is used as given
+    s = Setup(controller="pi", line_length_m=2.0, segments=4, duration_s=0.01, substep_s=substep_s)
+    h = run(s).attrs["substep_s"]
+    assert h == pytest.approx(5e-5 if substep_s else build_plant(s).compile().substeps(1e-3)[1], rel=1e-12)
+
+
+@pytest.mark.parametrize("bad", [0.0, -1e-4, float("nan"), float("inf")])
+def test_setup_refuses_a_bad_substep(bad):
+    with pytest.raises(SensorInputError, match="substep_s"):
+        Setup(substep_s=bad)
 
 
 def test_controller_study_rows_carry_the_thesis_and_our_line_model_apart():
