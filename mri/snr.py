@@ -130,13 +130,17 @@ class PairResult:
 # --------------------------------------------------------------------------- noise estimators
 
 
-def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
+def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None,
+                 scratch: np.ndarray | None = None) -> float:
     """Eqs 91-92: single-image noise from horizontal neighbour differences of V = a - b.
 
     Only neighbour pairs with both pixels in ``mask`` count (all n (m - 1) pairs of the n x m
-    array ``diff`` when ``mask`` is None). Units: those of the pixels.
+    array ``diff`` when ``mask`` is None). Units: those of the pixels. ``scratch``, a flat
+    float64 buffer of at least n (m - 1) elements, holds the differences (no temporary).
     """
-    step = np.diff(diff, axis=1)
+    rows, cols = diff.shape
+    out = None if scratch is None else scratch[: rows * (cols - 1)].reshape(rows, cols - 1)
+    step = np.subtract(diff[:, 1:], diff[:, :-1], out=out)
     if mask is None:
         n_pairs, total = step.size, float(np.einsum("ij,ij->", step, step))
     else:
@@ -233,11 +237,19 @@ def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure
                       _finite(signal / noise, f"the SNR of ROI {roi.label!r}"))
 
 
-def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
-    """Signal, noise and SNR of one ROI by a pair method (eq 93: SNR = S / Noise)."""
-    noise_fn = {"thesis": thesis_noise, "nema": nema_noise}[method]
+def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str,
+                scratch: np.ndarray | None = None) -> RoiMeasure:
+    """Signal, noise and SNR of one ROI by a pair method (eq 93: SNR = S / Noise);
+    ``scratch``: a flat float64 buffer the size of ``diff`` for the thesis method."""
     # a rectangle is measured on the block itself, no mask needed
-    noise = noise_fn(diff, roi.mask) if roi.box is None else noise_fn(roi.pixels(diff))
+    values, mask = (diff, roi.mask) if roi.box is None else (roi.pixels(diff), None)
+    if method == "thesis":
+        noise = thesis_noise(values, mask, scratch)
+    elif method == "nema":
+        noise = nema_noise(values, mask)
+    else:
+        raise MeasurementError(f"method {method!r} is not a pair method; use one of "
+                               f"{', '.join(PAIR_METHODS)}")
     return _roi_measure(roi, a, noise)
 
 
@@ -251,18 +263,22 @@ def _method_result(method, image, measures, noise_rois=()) -> MethodResult:
     )
 
 
-def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
-    """A pair method on one slice over several ROIs: mean SNR, signal and noise of the ROIs."""
+def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str,
+                   scratch: np.ndarray | None = None) -> MethodResult:
+    """A pair method on one slice over several ROIs: mean SNR, signal and noise of the ROIs
+    (``scratch`` as for :func:`measure_roi`)."""
     if method not in PAIR_METHODS:
         raise MeasurementError(f"method {method!r} is not a pair method; use one of "
                                f"{', '.join(PAIR_METHODS)}")
-    return _method_result(method, "a-b", [measure_roi(a, diff, roi, method) for roi in rois])
+    return _method_result(method, "a-b", [measure_roi(a, diff, roi, method, scratch) for roi in rois])
 
 
 def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: str,
                    background_rois: tuple[Roi, ...] = (),
                    kernel_px: int = SMOOTHING_KERNEL_PX) -> MethodResult:
-    """A single-image method (``smoothed`` or ``background``) on one slice of image ``name``."""
+    """A single-image method (``smoothed`` or ``background``) on one slice of image ``name``
+    (measured in float64)."""
+    image = image.astype(np.float64, copy=False)
     if method == "smoothed":
         noise_image = smoothed_noise_image(image, kernel_px)
         measures = [_roi_measure(roi, image, smoothed_noise(roi.pixels(noise_image)))
@@ -278,27 +294,42 @@ def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: 
                            f"{', '.join(SINGLE_METHODS)}")
 
 
+class SliceWorkspace:
+    """Float64 buffers for the slices of one image shape, reused from slice to slice of a
+    volume (fresh image-sized temporaries cost page faults): ``a`` the slice of a, ``diff``
+    a - b, ``scratch`` a flat buffer as large for intermediate results."""
+
+    def __init__(self, shape: tuple[int, int]):
+        self.a, self.diff = np.empty(shape), np.empty(shape)
+        self.scratch = np.empty(shape[0] * shape[1])
+
+
 def measure_slice(
     index: int, a: np.ndarray, b: np.ndarray | None, rois_by_method: dict[str, tuple[Roi, ...]],
     background_rois: tuple[Roi, ...] = (), kernel_px: int = SMOOTHING_KERNEL_PX,
+    workspace: SliceWorkspace | None = None,
 ) -> SliceResult:
-    """All requested methods on one 2-D float64 slice (pair, or a alone when ``b`` is None);
-    ``rois_by_method``: method -> signal ROIs."""
-    diff = None if b is None else a - b
+    """All requested methods on one 2-D slice, a in float64 (pair, or a alone when ``b`` is
+    None; a - b is formed in float64); ``rois_by_method``: method -> signal ROIs;
+    ``workspace`` (of a's shape) holds a - b and intermediate results."""
+    if workspace is None:
+        workspace = SliceWorkspace(a.shape)
+    diff = None if b is None else np.subtract(a, b, out=workspace.diff, dtype=np.float64)
     results = []
     for method, rois in rois_by_method.items():
         if method in PAIR_METHODS:
             if diff is None:
                 raise MeasurementError(f"method {method!r} needs a pair of images a and b; "
                                        f"one image takes {' or '.join(SINGLE_METHODS)}")
-            results.append(measure_method(a, diff, rois, method))
+            results.append(measure_method(a, diff, rois, method, workspace.scratch))
         else:
             for name, image in (("a", a), ("b", b)):
                 if image is not None:
                     results.append(measure_single(image, name, rois, method, background_rois, kernel_px))
     if diff is None:
         return SliceResult(index, None, tuple(results), None, float(np.sum(a)))
-    sum_abs_difference = _finite(float(np.sum(np.abs(diff))), f"slice {index}: sum |a - b|")
+    magnitude = np.abs(diff, out=workspace.scratch.reshape(diff.shape))
+    sum_abs_difference = _finite(float(np.sum(magnitude)), f"slice {index}: sum |a - b|")
     sum_a = _finite(float(np.sum(a)), f"slice {index}: sum a")
     return SliceResult(index, _percent(sum_abs_difference, sum_a), tuple(results),
                        sum_abs_difference, sum_a)
@@ -360,20 +391,23 @@ def measure_pair(
         background_specs = (parse_roi(DEFAULT_BACKGROUND_ROI),) if "background" in specs_by_method else ()
     all_specs = [spec for specs in specs_by_method.values() for spec in specs] + list(background_specs)
     needs_phantom = any(spec.kind in _PHANTOM_KINDS for spec in all_specs)
+    workspace = SliceWorkspace(a.shape[1:])
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked, not warned
         slices = [_measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs,
-                                         kernel_px, needs_phantom) for k in range(a.shape[0])]
+                                         kernel_px, needs_phantom, workspace)
+                  for k in range(a.shape[0])]
     return summarise(tuple(slices), normalisation_factor)
 
 
 def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs, kernel_px,
-                           needs_phantom) -> SliceResult:
+                           needs_phantom, workspace) -> SliceResult:
     """Slice ``k`` measured, or (in a volume) skipped with the reason its ROIs or measures
-    failed."""
+    failed; a's slice is copied to float64 into ``workspace``, b's is read as it is."""
     from mri.phantom import find_phantom
 
-    a_k = a[k].astype(np.float64)
-    b_k = None if b is None else b[k].astype(np.float64)
+    a_k = workspace.a
+    np.copyto(a_k, a[k], casting="unsafe")
+    b_k = None if b is None else b[k]
     try:
         found = find_phantom(a_k) if needs_phantom else None
 
@@ -381,7 +415,7 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
             return tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k, found))
 
         rois = {method: resolve(specs) for method, specs in specs_by_method.items()}
-        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px)
+        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px, workspace)
     except (RoiError, MeasurementError) as exc:
         if a.shape[0] == 1:
             raise

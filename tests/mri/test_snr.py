@@ -275,3 +275,26 @@ def test_volume_slice_whose_boxes_leave_the_phantom_is_skipped_with_its_reason()
     assert len(measured) == 9 and result.summary("nema").snr == pytest.approx(np.mean(measured))
     with pytest.raises(MeasurementError, match="no slice of the 2 could be measured"):
         measure_pair(a[[7, 10]], b[[7, 10]], None, {"nema": specs("nema5")})
+
+
+def test_volume_slices_measure_as_single_images():
+    # a volume's slices share one float64 workspace; each must measure as it does alone
+    # (float32 pixels as loaded, every pair and single-image method, a skipped slice between)
+    from tests.mri.phantoms import noisy_pair, phantom
+
+    truths = [phantom(signal=s) for s in (400.0, 900.0)] + [np.zeros((256, 256)), phantom(kind="rectangle")]
+    pairs = [noisy_pair(t + 30.0, 12.0, seed=20 + k) for k, t in enumerate(truths)]
+    a = np.stack([p[0] for p in pairs]).astype(np.float32)
+    b = np.stack([p[1] for p in pairs]).astype(np.float32)
+    methods = {"thesis": specs("whole") + specs("nema5"), "nema": specs("nema5") + specs("phantom"),
+               "smoothed": specs("nema5"), "background": specs("nema5")}
+    volume = measure_pair(a, b, (1.0, 1.0), methods)
+    assert [bool(s.skipped) for s in volume.slices] == [False, False, True, False]
+    for k in (0, 1, 3):
+        alone = measure_pair(a[k : k + 1], b[k : k + 1], (1.0, 1.0), methods).slices[0]
+        assert volume.slices[k].methods == alone.methods
+        assert volume.slices[k].sum_abs_difference == alone.sum_abs_difference
+    assert volume.slices[0].methods[0].snr != volume.slices[1].methods[0].snr
+    # float32 pixels measure exactly as their float64 copies (every method works in float64)
+    wide = measure_pair(a.astype(np.float64), b.astype(np.float64), (1.0, 1.0), methods)
+    assert [s.methods for s in wide.slices] == [s.methods for s in volume.slices]
