@@ -7,6 +7,9 @@ usable image raises :class:`mri.errors.ImageLoadError` with the path in the mess
 
 from __future__ import annotations
 
+import io
+import struct
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -60,17 +63,71 @@ def load_image(path) -> MriImage:
 # --------------------------------------------------------------------------- DICOM
 
 
+#: Every top-level attribute the DICOM loaders read. pydicom parses only these (the rest of
+#: the header, such as a scanner's private blocks, is skipped: a quarter of the read time of
+#: a small image); pixel data that needs pydicom's decoders is read again in full.
+DICOM_READ_KEYWORDS = frozenset(
+    ("SpecificCharacterSet", "SOPClassUID", "SeriesInstanceUID", "InstanceNumber",
+     "SeriesNumber", "SeriesDescription", "Manufacturer", "ManufacturerModelName",
+     "PixelSpacing", "SliceThickness", "ImageOrientationPatient", "ImagePositionPatient",
+     "RescaleSlope", "RescaleIntercept", "Rows", "Columns", "NumberOfFrames", "SamplesPerPixel",
+     "PhotometricInterpretation", "BitsAllocated", "BitsStored", "PixelRepresentation",
+     "PixelData", "PerFrameFunctionalGroupsSequence", "SharedFunctionalGroupsSequence")
+    + tuple(k for fields in (DICOM_ACQUISITION_FIELDS, DICOM_DESCRIPTIVE_FIELDS)
+            for keywords in fields.values() for k in keywords)
+)
+
+
 def _read_dicom(path: Path):
-    """Read a DICOM dataset, or return None when the file is not DICOM."""
+    """Read a DICOM dataset (the attributes of DICOM_READ_KEYWORDS), or return None when the
+    file is not DICOM."""
     import pydicom
     from pydicom.errors import InvalidDicomError
 
     try:
-        return pydicom.dcmread(path)
+        # from memory: pydicom's many small reads cost less there than on a file
+        return pydicom.dcmread(io.BytesIO(path.read_bytes()),
+                               specific_tags=[_tag(k) for k in DICOM_READ_KEYWORDS])
     except InvalidDicomError:
         return None
     except (OSError, ValueError, EOFError) as exc:  # truncated or corrupt file
         raise ImageLoadError(f"{path}: unreadable DICOM file ({exc})") from None
+
+
+@lru_cache(maxsize=None)
+def _tag(keyword: str):
+    """The tag of a keyword of DICOM_READ_KEYWORDS (an error for others: they are not read)."""
+    from pydicom.tag import Tag
+
+    if keyword not in DICOM_READ_KEYWORDS:
+        raise KeyError(f"{keyword} is not in DICOM_READ_KEYWORDS: the loaders do not read it")
+    return Tag(keyword)
+
+
+def _attribute(ds, keyword: str):
+    """Top-level attribute ``keyword`` of ``ds``, None when absent.
+
+    Numbers stored as text (VR DS, IS) come as their text (a string, or a list of strings
+    for several values), US numbers as ints and OB/OW data as its bytes, read straight from
+    the raw element: pydicom's conversion costs about 8 us an element, a third of a small
+    image's metadata. Anything else (other VRs, implicit-VR files) is pydicom's value.
+    """
+    from pydicom.dataelem import RawDataElement
+
+    element = ds.get_item(_tag(keyword))
+    if element is None:
+        return None
+    if isinstance(element, RawDataElement) and element.value is not None:
+        vr, raw = element.VR, element.value
+        if vr in ("DS", "IS"):
+            items = raw.decode("latin-1").rstrip(" \x00").split("\\")
+            return items[0] if len(items) == 1 else items
+        if vr == "US" and len(raw) % 2 == 0:
+            values = struct.unpack(f"{'<' if element.is_little_endian else '>'}{len(raw) // 2}H", raw)
+            return None if not values else values[0] if len(values) == 1 else list(values)
+        if vr in ("OB", "OW"):
+            return raw
+    return ds[element.tag].value
 
 
 #: Tags of the enhanced multi-frame functional-group sequences.
@@ -84,7 +141,7 @@ def _lookup(ds, keyword: str, frame: int = 0):
     per-frame and shared functional-group sequences; classic files keep them at the top level.
     """
     if _PER_FRAME_GROUPS not in ds and _SHARED_GROUPS not in ds:  # a classic file (fast path)
-        return ds.get(keyword)
+        return _attribute(ds, keyword)
     for group_keyword in ("PerFrameFunctionalGroupsSequence", "SharedFunctionalGroupsSequence"):
         groups = ds.get(group_keyword)
         if not groups:
@@ -96,7 +153,7 @@ def _lookup(ds, keyword: str, frame: int = 0):
         for element in item:
             if element.VR == "SQ" and len(element.value) and keyword in element.value[0]:
                 return element.value[0][keyword].value
-    return ds.get(keyword)
+    return _attribute(ds, keyword)
 
 
 def _first(ds, keywords: tuple[str, ...]):
@@ -123,52 +180,66 @@ def _plain(value):
 
 def _header_int(ds, keyword: str, path: Path, default=None) -> int:
     """A DICOM integer attribute, an error naming it when absent or not a positive integer."""
-    value = ds.get(keyword, default)
+    value = _attribute(ds, keyword)
+    value = default if value is None else value
     try:
-        number = int(value)
-    except (TypeError, ValueError):
+        number = float(value)  # an IS may be written "2.0"
+        number = int(number) if number.is_integer() else 0
+    except (TypeError, ValueError, OverflowError):
         number = 0
     if number < 1 or number > 2**31:
         raise ImageLoadError(f"{path}: {keyword} = {value!r}: must be a positive whole number")
     return number
 
 
-def _check_pixel_length(ds, path: Path) -> None:
+def _read_all(path: Path):
+    """The whole dataset of a DICOM file, for pydicom's pixel decoders."""
+    import pydicom
+
+    return pydicom.dcmread(path)
+
+
+def _check_pixel_length(ds, path: Path) -> tuple[int, int, int, int] | None:
     """Refuse truncated or inconsistent native pixel data: its length must hold rows x
     columns x frames x samples pixels of BitsAllocated bits (compressed data is checked by
-    its decoder)."""
-    if ds.file_meta.get("TransferSyntaxUID", "1.2.840.10008.1.2") not in NATIVE_TRANSFER_SYNTAXES:
-        return
+    its decoder). Returns (rows, cols, frames, bits) of native data, None otherwise."""
+    if _transfer_syntax(ds) not in NATIVE_TRANSFER_SYNTAXES:
+        return None
     rows, cols = _header_int(ds, "Rows", path), _header_int(ds, "Columns", path)
     frames = _header_int(ds, "NumberOfFrames", path, 1)
     bits = _header_int(ds, "BitsAllocated", path)
     if bits not in (1, 8, 16, 32, 64):
         raise ImageLoadError(f"{path}: BitsAllocated = {bits}: must be 1, 8, 16, 32 or 64")
     expected = (rows * cols * frames * bits + 7) // 8
-    found = len(ds.PixelData)
+    found = len(_attribute(ds, "PixelData"))
     if found < expected or found > expected + 1:  # one pad byte makes an odd length even
         raise ImageLoadError(
             f"{path}: pixel data holds {found} bytes, but Rows x Columns x NumberOfFrames x "
             f"BitsAllocated = {rows} x {cols} x {frames} x {bits} bits needs {expected}; the "
             "file is truncated or its header is inconsistent"
         )
+    return rows, cols, frames, bits
+
+
+def _transfer_syntax(ds) -> str:
+    return ds.file_meta.get("TransferSyntaxUID", "1.2.840.10008.1.2")
 
 
 def _native_pixels(ds, path: Path):
     """Pixels of little-endian native data read straight from the buffer (what pydicom's
     ``pixel_array`` decodes, without its overhead), after the length check; None for other
     encodings (pydicom decodes them)."""
-    _check_pixel_length(ds, path)
-    syntax = ds.file_meta.get("TransferSyntaxUID", "1.2.840.10008.1.2")
-    bits = int(ds.BitsAllocated)
-    if syntax not in NATIVE_TRANSFER_SYNTAXES[:2] or bits not in (8, 16, 32):
+    layout = _check_pixel_length(ds, path)
+    if layout is None or _transfer_syntax(ds) not in NATIVE_TRANSFER_SYNTAXES[:2]:
         return None
-    signed = int(ds.get("PixelRepresentation", 0)) == 1
-    stored = int(ds.get("BitsStored", bits))
-    frames = int(ds.get("NumberOfFrames", 1) or 1)
+    rows, cols, frames, bits = layout
+    if bits not in (8, 16, 32):
+        return None
+    signed = _attribute(ds, "PixelRepresentation") == 1
+    stored = _header_int(ds, "BitsStored", path, bits)
     dtype = np.dtype(f"<{'i' if signed else 'u'}{bits // 8}")
-    count = int(ds.Rows) * int(ds.Columns) * frames
-    pixels = np.frombuffer(ds.PixelData, dtype=dtype, count=count).reshape(frames, int(ds.Rows), int(ds.Columns))
+    pixels = np.frombuffer(_attribute(ds, "PixelData"), dtype=dtype, count=rows * cols * frames)
+    pixels = pixels.reshape(frames, rows, cols)
     if stored < bits:  # keep the stored bits only; sign-extend signed values
         shift = bits - stored
         pixels = (pixels << shift) >> shift if signed else pixels & ((1 << stored) - 1)
@@ -196,14 +267,15 @@ def _dicom_frames(ds, path: Path) -> np.ndarray:
     if "PixelData" not in ds:
         sop = getattr(ds.get("SOPClassUID"), "name", ds.get("SOPClassUID"))
         raise ImageLoadError(f"{path}: DICOM file without pixel data (SOP class {sop!s})")
-    if int(ds.get("SamplesPerPixel", 1)) != 1:
+    samples = _attribute(ds, "SamplesPerPixel")
+    if samples is not None and int(samples) != 1:
         raise ImageLoadError(
             f"{path}: colour DICOM ({ds.get('PhotometricInterpretation')}); "
             "MR magnitude images must be greyscale"
         )
     raw = _native_pixels(ds, path)
     try:
-        raw = ds.pixel_array if raw is None else raw
+        raw = _read_all(path).pixel_array if raw is None else raw
     except Exception as exc:  # pydicom raises many types for unsupported encodings
         raise ImageLoadError(f"{path}: cannot decode DICOM pixel data ({exc})") from None
     frames = as_pixels(raw, str(path))
@@ -231,7 +303,7 @@ def _dicom_image(ds, pixels: np.ndarray, source: str) -> MriImage:
     position = _numbers(ds, "ImagePositionPatient", 3, path)
     scanner = " ".join(
         str(v)
-        for v in (ds.get("Manufacturer"), ds.get("ManufacturerModelName"))
+        for v in (_attribute(ds, "Manufacturer"), _attribute(ds, "ManufacturerModelName"))
         if v not in (None, "")
     )
     series_number = _numbers(ds, "SeriesNumber", 1, path)
@@ -249,7 +321,7 @@ def _dicom_image(ds, pixels: np.ndarray, source: str) -> MriImage:
         slice_thickness_mm=thickness[0] if thickness else None,
         orientation=orientation,
         position_mm=position,
-        series=str(ds.get("SeriesDescription") or "") or None,
+        series=str(_attribute(ds, "SeriesDescription") or "") or None,
         series_number=int(series_number[0]) if series_number else None,
         scanner=scanner or None,
         acquisition={k: v for k, v in acquisition.items() if v is not None},
@@ -293,7 +365,7 @@ def load_dicom_series(folder) -> MriImage:
             datasets.append((f, ds))
     if not datasets:
         raise ImageLoadError(f"{root}: folder holds no DICOM image files")
-    series = {str(ds.get("SeriesInstanceUID", "")) for _, ds in datasets}
+    series = {str(_attribute(ds, "SeriesInstanceUID") or "") for _, ds in datasets}
     if len(series) > 1:
         raise ImageLoadError(
             f"{root}: folder holds {len(series)} DICOM series; give a folder with one series "
