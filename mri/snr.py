@@ -130,20 +130,16 @@ class PairResult:
 # --------------------------------------------------------------------------- noise estimators
 
 
-def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None,
-                 scratch: np.ndarray | None = None) -> float:
+def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     """Eqs 91-92: single-image noise from horizontal neighbour differences of V = a - b.
 
     Only neighbour pairs with both pixels in ``mask`` count (all n (m - 1) pairs of the n x m
-    array ``diff`` when ``mask`` is None). Units: those of the pixels. ``scratch``, a flat
-    float64 buffer of at least n (m - 1) elements, holds the differences (no temporary).
+    array ``diff`` when ``mask`` is None). Units: those of the pixels.
     """
-    rows, cols = diff.shape
-    out = None if scratch is None else scratch[: rows * (cols - 1)].reshape(rows, cols - 1)
-    step = np.subtract(diff[:, 1:], diff[:, :-1], out=out)
     if mask is None:
-        n_pairs, total = step.size, float(np.einsum("ij,ij->", step, step))
+        n_pairs, total = diff.shape[0] * (diff.shape[1] - 1), _sum_squared_steps(diff)
     else:
+        step = np.diff(diff, axis=1)
         pairs = mask[:, 1:] & mask[:, :-1]
         n_pairs, total = int(pairs.sum()), float(np.sum(step[pairs] ** 2))
     if n_pairs == 0:
@@ -152,6 +148,25 @@ def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None,
         )
     sd = np.sqrt(total / (2.0 * n_pairs))
     return float(sd / np.sqrt(2.0))
+
+
+#: Elements (float64) in a block of rows of :func:`_sum_squared_steps`: 64 kB blocks stay in
+#: cache and reuse memory (an image-sized temporary would be fresh pages every time).
+STEP_BLOCK_ELEMENTS = 8192
+
+
+def _sum_squared_steps(diff: np.ndarray) -> float:
+    """Sum over the rows i and columns j of (diff[i, j + 1] - diff[i, j])^2 (pixel units
+    squared), computed a block of rows at a time."""
+    rows, cols = diff.shape
+    block = max(1, STEP_BLOCK_ELEMENTS // cols)
+    buffer = np.empty((min(block, rows), cols - 1))
+    total = 0.0
+    for start in range(0, rows, block):
+        part = diff[start : start + block]
+        step = np.subtract(part[:, 1:], part[:, :-1], out=buffer[: len(part)])
+        total += float(np.einsum("ij,ij->", step, step))
+    return total
 
 
 def nema_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
@@ -232,19 +247,18 @@ def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure
             f"zero noise in ROI {roi.label!r}: the noise image is constant there "
             "(identical images a and b, or a synthetic image), SNR is undefined"
         )
-    signal = _finite(float(np.mean(roi.pixels(signal_image))), f"the signal of ROI {roi.label!r}")
+    signal = _finite(float(np.mean(roi.pixels(signal_image), dtype=np.float64)),
+                     f"the signal of ROI {roi.label!r}")
     return RoiMeasure(roi.label, roi.n_pixels, signal, noise,
                       _finite(signal / noise, f"the SNR of ROI {roi.label!r}"))
 
 
-def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str,
-                scratch: np.ndarray | None = None) -> RoiMeasure:
-    """Signal, noise and SNR of one ROI by a pair method (eq 93: SNR = S / Noise);
-    ``scratch``: a flat float64 buffer the size of ``diff`` for the thesis method."""
+def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
+    """Signal, noise and SNR of one ROI by a pair method (eq 93: SNR = S / Noise)."""
     # a rectangle is measured on the block itself, no mask needed
     values, mask = (diff, roi.mask) if roi.box is None else (roi.pixels(diff), None)
     if method == "thesis":
-        noise = thesis_noise(values, mask, scratch)
+        noise = thesis_noise(values, mask)
     elif method == "nema":
         noise = nema_noise(values, mask)
     else:
@@ -263,14 +277,12 @@ def _method_result(method, image, measures, noise_rois=()) -> MethodResult:
     )
 
 
-def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str,
-                   scratch: np.ndarray | None = None) -> MethodResult:
-    """A pair method on one slice over several ROIs: mean SNR, signal and noise of the ROIs
-    (``scratch`` as for :func:`measure_roi`)."""
+def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
+    """A pair method on one slice over several ROIs: mean SNR, signal and noise of the ROIs."""
     if method not in PAIR_METHODS:
         raise MeasurementError(f"method {method!r} is not a pair method; use one of "
                                f"{', '.join(PAIR_METHODS)}")
-    return _method_result(method, "a-b", [measure_roi(a, diff, roi, method, scratch) for roi in rois])
+    return _method_result(method, "a-b", [measure_roi(a, diff, roi, method) for roi in rois])
 
 
 def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: str,
@@ -294,43 +306,32 @@ def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: 
                            f"{', '.join(SINGLE_METHODS)}")
 
 
-class SliceWorkspace:
-    """Float64 buffers for the slices of one image shape, reused from slice to slice of a
-    volume (fresh image-sized temporaries cost page faults): ``a`` the slice of a, ``diff``
-    a - b, ``scratch`` a flat buffer as large for intermediate results."""
-
-    def __init__(self, shape: tuple[int, int]):
-        self.a, self.diff = np.empty(shape), np.empty(shape)
-        self.scratch = np.empty(shape[0] * shape[1])
-
-
 def measure_slice(
     index: int, a: np.ndarray, b: np.ndarray | None, rois_by_method: dict[str, tuple[Roi, ...]],
     background_rois: tuple[Roi, ...] = (), kernel_px: int = SMOOTHING_KERNEL_PX,
-    workspace: SliceWorkspace | None = None,
+    diff_buffer: np.ndarray | None = None,
 ) -> SliceResult:
-    """All requested methods on one 2-D slice, a in float64 (pair, or a alone when ``b`` is
-    None; a - b is formed in float64); ``rois_by_method``: method -> signal ROIs;
-    ``workspace`` (of a's shape) holds a - b and intermediate results."""
-    if workspace is None:
-        workspace = SliceWorkspace(a.shape)
-    diff = None if b is None else np.subtract(a, b, out=workspace.diff, dtype=np.float64)
+    """All requested methods on one 2-D slice (pair, or a alone when ``b`` is None), measured
+    in float64 whatever the pixels' float type; ``rois_by_method``: method -> signal ROIs.
+    ``diff_buffer``, a float64 array of a's shape reused from slice to slice of a volume
+    (fresh image-sized temporaries cost page faults), receives a - b and ends as |a - b|."""
+    diff = None if b is None else np.subtract(a, b, out=diff_buffer, dtype=np.float64)
     results = []
     for method, rois in rois_by_method.items():
         if method in PAIR_METHODS:
             if diff is None:
                 raise MeasurementError(f"method {method!r} needs a pair of images a and b; "
                                        f"one image takes {' or '.join(SINGLE_METHODS)}")
-            results.append(measure_method(a, diff, rois, method, workspace.scratch))
+            results.append(measure_method(a, diff, rois, method))
         else:
             for name, image in (("a", a), ("b", b)):
                 if image is not None:
                     results.append(measure_single(image, name, rois, method, background_rois, kernel_px))
+    sum_a = _finite(float(np.sum(a, dtype=np.float64)), f"slice {index}: sum a")
     if diff is None:
-        return SliceResult(index, None, tuple(results), None, float(np.sum(a)))
-    magnitude = np.abs(diff, out=workspace.scratch.reshape(diff.shape))
+        return SliceResult(index, None, tuple(results), None, sum_a)
+    magnitude = np.abs(diff, out=diff)  # a - b is not needed any more
     sum_abs_difference = _finite(float(np.sum(magnitude)), f"slice {index}: sum |a - b|")
-    sum_a = _finite(float(np.sum(a)), f"slice {index}: sum a")
     return SliceResult(index, _percent(sum_abs_difference, sum_a), tuple(results),
                        sum_abs_difference, sum_a)
 
@@ -391,23 +392,35 @@ def measure_pair(
         background_specs = (parse_roi(DEFAULT_BACKGROUND_ROI),) if "background" in specs_by_method else ()
     all_specs = [spec for specs in specs_by_method.values() for spec in specs] + list(background_specs)
     needs_phantom = any(spec.kind in _PHANTOM_KINDS for spec in all_specs)
-    workspace = SliceWorkspace(a.shape[1:])
+    diff_buffer = _SliceBuffer(a.shape[1:])
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked, not warned
         slices = [_measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs,
-                                         kernel_px, needs_phantom, workspace)
+                                         kernel_px, needs_phantom, diff_buffer)
                   for k in range(a.shape[0])]
     return summarise(tuple(slices), normalisation_factor)
 
 
+class _SliceBuffer:
+    """A float64 array of one slice's shape, made at first use and then reused for every
+    slice of a volume. It is made after the first phantom search, whose freed temporaries
+    it reuses: memory the process has not touched yet costs a page fault per 4 kB."""
+
+    def __init__(self, shape: tuple[int, int]):
+        self.shape, self._array = shape, None
+
+    def array(self) -> np.ndarray:
+        if self._array is None:
+            self._array = np.empty(self.shape)
+        return self._array
+
+
 def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs, kernel_px,
-                           needs_phantom, workspace) -> SliceResult:
+                           needs_phantom, diff_buffer) -> SliceResult:
     """Slice ``k`` measured, or (in a volume) skipped with the reason its ROIs or measures
-    failed; a's slice is copied to float64 into ``workspace``, b's is read as it is."""
+    failed; pixels are read as they are (float32 or float64) and measured in float64."""
     from mri.phantom import find_phantom
 
-    a_k = workspace.a
-    np.copyto(a_k, a[k], casting="unsafe")
-    b_k = None if b is None else b[k]
+    a_k, b_k = a[k], None if b is None else b[k]
     try:
         found = find_phantom(a_k) if needs_phantom else None
 
@@ -415,12 +428,13 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
             return tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k, found))
 
         rois = {method: resolve(specs) for method, specs in specs_by_method.items()}
-        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px, workspace)
+        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px,
+                             None if b is None else diff_buffer.array())
     except (RoiError, MeasurementError) as exc:
         if a.shape[0] == 1:
             raise
         if b_k is None:
-            return SliceResult(k, None, (), None, float(np.sum(a_k)), skipped=str(exc))
+            return SliceResult(k, None, (), None, float(np.sum(a_k, dtype=np.float64)), skipped=str(exc))
         diff_sum, a_sum = _sums(a_k, b_k)
         return SliceResult(k, 100.0 * diff_sum / a_sum if a_sum > 0 else None,
                            (), diff_sum, a_sum, skipped=str(exc))

@@ -16,7 +16,7 @@ import pytest
 from scipy import ndimage
 
 from mri.errors import BoxOutsidePhantomError
-from mri.phantom import _median, fill_holes, find_phantom, fit_circle, largest_component, outline_points
+from mri.phantom import _median, above, fill_holes, find_phantom, fit_circle, largest_component, outline_points
 from mri.roi import parse_roi, resolve_roi
 from tests.mri.phantoms import noisy_pair, phantom
 
@@ -167,6 +167,17 @@ def test_circle_fit_equals_least_squares_and_median_equals_numpy():
     for n in (1, 2, 7, 10):
         values = rng.normal(size=n)
         assert _median(values) == np.median(values)
+
+
+def test_float32_pixels_are_compared_with_the_threshold_in_float64():
+    # 1 + 2**-23 (a float32) is above 1.00000007; float32 would round the threshold up to it
+    pixels = np.array([[1.0, 1.0 + 2.0**-23], [1.0 + 2.0**-22, 0.5]], dtype=np.float32)
+    assert above(pixels, 1.00000007).tolist() == [[False, True], [True, False]]
+    np.testing.assert_array_equal(above(pixels, 1.00000007), pixels.astype(np.float64) > 1.00000007)
+    a, _ = noisy_pair(phantom(centre=CENTRE, shading=("linear", 0.3)), 20.0, seed=11)
+    narrow, wide = find_phantom(a.astype(np.float32)), find_phantom(a.astype(np.float32).astype(np.float64))
+    np.testing.assert_array_equal(narrow[0], wide[0])
+    assert narrow[1] == wide[1]
 
 
 def test_large_slices_are_searched_at_half_resolution_with_the_same_centre():
