@@ -137,11 +137,14 @@ def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     array ``diff`` when ``mask`` is None). Units: those of the pixels.
     """
     if mask is None:
-        n_pairs, total = diff.shape[0] * (diff.shape[1] - 1), _sum_squared_steps(diff)
-    else:
-        step = np.diff(diff, axis=1)
-        pairs = mask[:, 1:] & mask[:, :-1]
-        n_pairs, total = int(pairs.sum()), float(np.sum(step[pairs] ** 2))
+        return _thesis_sd(_sum_squared_steps(_row_blocks(diff)), diff.shape[0] * (diff.shape[1] - 1))
+    step = np.diff(diff, axis=1)
+    pairs = mask[:, 1:] & mask[:, :-1]
+    return _thesis_sd(float(np.sum(step[pairs] ** 2)), int(pairs.sum()))
+
+
+def _thesis_sd(total: float, n_pairs: int) -> float:
+    """Eqs 91-92 from the sum of the n_pairs squared neighbour differences (pixel units^2)."""
     if n_pairs == 0:
         raise MeasurementError(
             "thesis method: the ROI holds no two horizontally adjacent pixels (eq 91 needs them)"
@@ -150,23 +153,48 @@ def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     return float(sd / np.sqrt(2.0))
 
 
-#: Elements (float64) in a block of rows of :func:`_sum_squared_steps`: 64 kB blocks stay in
-#: cache and reuse memory (an image-sized temporary would be fresh pages every time).
-STEP_BLOCK_ELEMENTS = 8192
+#: Elements (float64) in a block of rows of the slice-wide sums: 64 kB blocks stay in cache
+#: and reuse memory (a slice-sized temporary would be fresh pages, a page fault per 4 kB,
+#: every time).
+BLOCK_ELEMENTS = 8192
 
 
-def _sum_squared_steps(diff: np.ndarray) -> float:
-    """Sum over the rows i and columns j of (diff[i, j + 1] - diff[i, j])^2 (pixel units
-    squared), computed a block of rows at a time."""
-    rows, cols = diff.shape
-    block = max(1, STEP_BLOCK_ELEMENTS // cols)
-    buffer = np.empty((min(block, rows), cols - 1))
-    total = 0.0
+def _row_blocks(a: np.ndarray, b: np.ndarray | None = None):
+    """Blocks of rows of the 2-D a - b (of a when ``b`` is None) in float64; the blocks of a
+    difference are views of one buffer, valid until the next block."""
+    rows, cols = a.shape
+    block = max(1, BLOCK_ELEMENTS // cols)
+    buffer = None if b is None else np.empty((min(block, rows), cols))
     for start in range(0, rows, block):
-        part = diff[start : start + block]
-        step = np.subtract(part[:, 1:], part[:, :-1], out=buffer[: len(part)])
+        stop = start + block
+        if b is None:
+            yield a[start:stop]
+        else:
+            yield np.subtract(a[start:stop], b[start:stop], out=buffer[: len(a[start:stop])],
+                              dtype=np.float64)
+
+
+def _sum_squared_steps(blocks) -> float:
+    """Sum over the rows i and columns j of (V[i, j + 1] - V[i, j])^2 (pixel units squared)
+    of an image V given as blocks of rows (:func:`_row_blocks`)."""
+    total, buffer = 0.0, None
+    for part in blocks:
+        rows, cols = part.shape
+        if buffer is None:
+            buffer = np.empty(part.size)
+        if part.flags.c_contiguous:  # steps along the flat block, then the row ends left out
+            flat = part.reshape(-1)
+            np.subtract(flat[1:], flat[:-1], out=buffer[: part.size - 1])
+            step = buffer[: part.size].reshape(rows, cols)[:, : cols - 1]
+        else:
+            step = np.subtract(part[:, 1:], part[:, :-1], out=buffer[: rows * (cols - 1)].reshape(rows, cols - 1))
         total += float(np.einsum("ij,ij->", step, step))
     return total
+
+
+def sum_abs_difference(a: np.ndarray, b: np.ndarray) -> float:
+    """sum |a - b| over a 2-D slice, in float64 (pixel units)."""
+    return float(sum(np.sum(np.abs(part, out=part)) for part in _row_blocks(a, b)))
 
 
 def nema_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
@@ -224,8 +252,7 @@ def difference_percent(a: np.ndarray, b: np.ndarray) -> float:
 
 def _sums(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     """sum |a - b| and sum a of one slice, in float64."""
-    a = a.astype(np.float64, copy=False)
-    return float(np.sum(np.abs(a - b))), float(np.sum(a))
+    return sum_abs_difference(a, b), float(np.sum(a, dtype=np.float64))
 
 
 # --------------------------------------------------------------------------- measures
@@ -253,14 +280,23 @@ def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure
                       _finite(signal / noise, f"the SNR of ROI {roi.label!r}"))
 
 
-def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
-    """Signal, noise and SNR of one ROI by a pair method (eq 93: SNR = S / Noise)."""
-    # a rectangle is measured on the block itself, no mask needed
-    values, mask = (diff, roi.mask) if roi.box is None else (roi.pixels(diff), None)
-    if method == "thesis":
-        noise = thesis_noise(values, mask)
+def measure_roi(a: np.ndarray, b: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
+    """Signal, noise and SNR of one ROI of the pair a, b by a pair method (eq 93: SNR = S /
+    Noise). V = a - b is formed in float64 over the ROI only: a rectangle's block (the
+    thesis method's a block of rows at a time), a mask's bounding box."""
+    if roi.box is None:
+        rows, cols = np.flatnonzero(roi.mask.any(axis=1)), np.flatnonzero(roi.mask.any(axis=0))
+        box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)) if rows.size else (slice(0), slice(0))
+        diff, mask = np.subtract(a[box], b[box], dtype=np.float64), roi.mask[box]
+    if method == "thesis" and roi.box is not None:
+        block_a, block_b = roi.pixels(a), roi.pixels(b)
+        noise = _thesis_sd(_sum_squared_steps(_row_blocks(block_a, block_b)),
+                           block_a.shape[0] * (block_a.shape[1] - 1))
+    elif method == "thesis":
+        noise = thesis_noise(diff, mask)
     elif method == "nema":
-        noise = nema_noise(values, mask)
+        values = np.subtract(roi.pixels(a), roi.pixels(b), dtype=np.float64) if roi.box else diff[mask]
+        noise = nema_noise(values)
     else:
         raise MeasurementError(f"method {method!r} is not a pair method; use one of "
                                f"{', '.join(PAIR_METHODS)}")
@@ -277,12 +313,13 @@ def _method_result(method, image, measures, noise_rois=()) -> MethodResult:
     )
 
 
-def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
-    """A pair method on one slice over several ROIs: mean SNR, signal and noise of the ROIs."""
+def measure_method(a: np.ndarray, b: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
+    """A pair method on one slice of a and b over several ROIs: mean SNR, signal and noise of
+    the ROIs."""
     if method not in PAIR_METHODS:
         raise MeasurementError(f"method {method!r} is not a pair method; use one of "
                                f"{', '.join(PAIR_METHODS)}")
-    return _method_result(method, "a-b", [measure_roi(a, diff, roi, method) for roi in rois])
+    return _method_result(method, "a-b", [measure_roi(a, b, roi, method) for roi in rois])
 
 
 def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: str,
@@ -309,31 +346,27 @@ def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: 
 def measure_slice(
     index: int, a: np.ndarray, b: np.ndarray | None, rois_by_method: dict[str, tuple[Roi, ...]],
     background_rois: tuple[Roi, ...] = (), kernel_px: int = SMOOTHING_KERNEL_PX,
-    diff_buffer: np.ndarray | None = None,
 ) -> SliceResult:
     """All requested methods on one 2-D slice (pair, or a alone when ``b`` is None), measured
     in float64 whatever the pixels' float type; ``rois_by_method``: method -> signal ROIs.
-    ``diff_buffer``, a float64 array of a's shape reused from slice to slice of a volume
-    (fresh image-sized temporaries cost page faults), receives a - b and ends as |a - b|."""
-    diff = None if b is None else np.subtract(a, b, out=diff_buffer, dtype=np.float64)
+    The difference a - b is formed per ROI and a block of rows at a time, never as a whole
+    slice (a fresh slice-sized temporary costs a page fault per 4 kB)."""
     results = []
     for method, rois in rois_by_method.items():
         if method in PAIR_METHODS:
-            if diff is None:
+            if b is None:
                 raise MeasurementError(f"method {method!r} needs a pair of images a and b; "
                                        f"one image takes {' or '.join(SINGLE_METHODS)}")
-            results.append(measure_method(a, diff, rois, method))
+            results.append(measure_method(a, b, rois, method))
         else:
             for name, image in (("a", a), ("b", b)):
                 if image is not None:
                     results.append(measure_single(image, name, rois, method, background_rois, kernel_px))
     sum_a = _finite(float(np.sum(a, dtype=np.float64)), f"slice {index}: sum a")
-    if diff is None:
+    if b is None:
         return SliceResult(index, None, tuple(results), None, sum_a)
-    magnitude = np.abs(diff, out=diff)  # a - b is not needed any more
-    sum_abs_difference = _finite(float(np.sum(magnitude)), f"slice {index}: sum |a - b|")
-    return SliceResult(index, _percent(sum_abs_difference, sum_a), tuple(results),
-                       sum_abs_difference, sum_a)
+    total = _finite(sum_abs_difference(a, b), f"slice {index}: sum |a - b|")
+    return SliceResult(index, _percent(total, sum_a), tuple(results), total, sum_a)
 
 
 def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | None = None) -> PairResult:
@@ -392,30 +425,15 @@ def measure_pair(
         background_specs = (parse_roi(DEFAULT_BACKGROUND_ROI),) if "background" in specs_by_method else ()
     all_specs = [spec for specs in specs_by_method.values() for spec in specs] + list(background_specs)
     needs_phantom = any(spec.kind in _PHANTOM_KINDS for spec in all_specs)
-    diff_buffer = _SliceBuffer(a.shape[1:])
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked, not warned
         slices = [_measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs,
-                                         kernel_px, needs_phantom, diff_buffer)
+                                         kernel_px, needs_phantom)
                   for k in range(a.shape[0])]
     return summarise(tuple(slices), normalisation_factor)
 
 
-class _SliceBuffer:
-    """A float64 array of one slice's shape, made at first use and then reused for every
-    slice of a volume. It is made after the first phantom search, whose freed temporaries
-    it reuses: memory the process has not touched yet costs a page fault per 4 kB."""
-
-    def __init__(self, shape: tuple[int, int]):
-        self.shape, self._array = shape, None
-
-    def array(self) -> np.ndarray:
-        if self._array is None:
-            self._array = np.empty(self.shape)
-        return self._array
-
-
 def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs, kernel_px,
-                           needs_phantom, diff_buffer) -> SliceResult:
+                           needs_phantom) -> SliceResult:
     """Slice ``k`` measured, or (in a volume) skipped with the reason its ROIs or measures
     failed; pixels are read as they are (float32 or float64) and measured in float64."""
     from mri.phantom import find_phantom
@@ -428,8 +446,7 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
             return tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k, found))
 
         rois = {method: resolve(specs) for method, specs in specs_by_method.items()}
-        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px,
-                             None if b is None else diff_buffer.array())
+        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px)
     except (RoiError, MeasurementError) as exc:
         if a.shape[0] == 1:
             raise
