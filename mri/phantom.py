@@ -104,15 +104,33 @@ def _runs(mask: np.ndarray) -> int:
 
 
 def largest_component(mask: np.ndarray) -> np.ndarray:
-    """The largest 4-connected region of a boolean mask (an error when it is empty)."""
-    labels, count = ndimage.label(mask)
-    if count == 0:
+    """The largest 4-connected region of a boolean mask (an error when it is empty); of
+    regions of equal size, the first in raster order. Only the mask's bounding box is
+    labelled."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
         raise RoiError("automatic phantom mask: no pixel above the threshold")
-    # region sizes by sorting (np.bincount's one counter per label is several times slower
-    # on a few large regions); ties go to the lowest label, as with argmax of a bincount
+    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    labels, count = ndimage.label(mask[box])
+    component = np.zeros_like(mask)
+    component[box] = labels == _largest_label(labels, count)
+    return component
+
+
+#: Up to this many regions, their sizes are counted one region at a time.
+FEW_REGIONS = 8
+
+
+def _largest_label(labels: np.ndarray, count: int) -> int:
+    """The label (1 to ``count``) of the largest region of ``labels``, the lowest of equal ones."""
+    if count <= FEW_REGIONS:  # one pass a region: no temporaries as large as the labels
+        sizes = [np.count_nonzero(labels == k) for k in range(1, count + 1)]
+        return 1 + int(np.argmax(sizes))
+    # many regions: sizes by sorting (np.bincount's one counter per label stalls on a few
+    # large regions)
     values, sizes = np.unique(labels, return_counts=True)
     sizes[values == 0] = 0
-    return labels == values[int(np.argmax(sizes))]
+    return int(values[int(np.argmax(sizes))])
 
 
 def phantom_mask(image: np.ndarray) -> np.ndarray:
