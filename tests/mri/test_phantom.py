@@ -110,6 +110,19 @@ def test_fill_holes_and_largest_component_match_scipy():
         np.testing.assert_array_equal(largest_component(blob), labels == 1 + int(np.argmax(sizes)))
 
 
+def test_largest_component_with_few_regions_and_ties():
+    # up to 8 regions are sized one at a time; equal regions: the first in raster order wins
+    mask = np.zeros((40, 50), dtype=bool)
+    mask[30:35, 5:10] = mask[5:10, 40:45] = True  # two 5 x 5 squares; (5, 40) comes first
+    mask[20, 20] = True
+    expected = np.zeros_like(mask)
+    expected[5:10, 40:45] = True
+    np.testing.assert_array_equal(largest_component(mask), expected)
+    mask[12:16, 1:3] = mask[36:39, 30:49] = True  # five regions, the last one largest
+    labels, _ = ndimage.label(mask)
+    np.testing.assert_array_equal(largest_component(mask), labels == labels[37, 40])
+
+
 def test_fill_holes_without_labelling_matches_scipy():
     # masks whose rows (or columns) are single runs skip the labelling: open notches and
     # bumps are no holes; a ring closed in both directions is refilled by the labelling.
