@@ -7,7 +7,6 @@ usable image raises :class:`mri.errors.ImageLoadError` with the path in the mess
 
 from __future__ import annotations
 
-import io
 import struct
 from functools import lru_cache
 from pathlib import Path
@@ -85,9 +84,9 @@ def _read_dicom(path: Path):
     from pydicom.errors import InvalidDicomError
 
     try:
-        # from memory: pydicom's many small reads cost less there than on a file
-        return pydicom.dcmread(io.BytesIO(path.read_bytes()),
-                               specific_tags=[_tag(k) for k in DICOM_READ_KEYWORDS])
+        # from the file, not from its bytes in memory: that costs a few small reads more,
+        # but no file-sized buffer (fresh memory costs a page fault per 4 kB)
+        return pydicom.dcmread(path, specific_tags=[_tag(k) for k in DICOM_READ_KEYWORDS])
     except InvalidDicomError:
         return None
     except (OSError, ValueError, EOFError) as exc:  # truncated or corrupt file
