@@ -240,8 +240,10 @@ def _native_pixels(ds, path: Path):
     pixels = np.frombuffer(_attribute(ds, "PixelData"), dtype=dtype, count=rows * cols * frames)
     pixels = pixels.reshape(frames, rows, cols)
     if stored < bits:  # keep the stored bits only; sign-extend signed values
-        shift = bits - stored
-        pixels = (pixels << shift) >> shift if signed else pixels & ((1 << stored) - 1)
+        lo, hi = (-(1 << (stored - 1)), (1 << (stored - 1)) - 1) if signed else (0, (1 << stored) - 1)
+        if pixels.max() > hi or (signed and pixels.min() < lo):  # bits above the stored ones
+            shift = bits - stored
+            pixels = (pixels << shift) >> shift if signed else pixels & hi
     return pixels if frames > 1 else pixels[0]
 
 
