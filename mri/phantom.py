@@ -111,7 +111,9 @@ def largest_component(mask: np.ndarray) -> np.ndarray:
     if rows.size == 0:
         raise RoiError("automatic phantom mask: no pixel above the threshold")
     box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
-    labels, count = ndimage.label(mask[box])
+    region = mask[box]
+    # n pixels hold at most n / 2 regions (a checkerboard): 16-bit labels when they suffice
+    labels, count = ndimage.label(region, output=np.uint16 if region.size <= 2 * 65535 else np.int32)
     component = np.zeros_like(mask)
     component[box] = labels == _largest_label(labels, count)
     return component

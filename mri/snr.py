@@ -164,14 +164,17 @@ def _row_blocks(a: np.ndarray, b: np.ndarray | None = None):
     difference are views of one buffer, valid until the next block."""
     rows, cols = a.shape
     block = max(1, BLOCK_ELEMENTS // cols)
-    buffer = None if b is None else np.empty((min(block, rows), cols))
+    if b is not None:  # a and b are cast into two buffers (a ufunc's casting would add two)
+        first, second = np.empty((min(block, rows), cols)), np.empty((min(block, rows), cols))
     for start in range(0, rows, block):
-        stop = start + block
+        part = a[start : start + block]
         if b is None:
-            yield a[start:stop]
+            yield part
         else:
-            yield np.subtract(a[start:stop], b[start:stop], out=buffer[: len(a[start:stop])],
-                              dtype=np.float64)
+            x, y = first[: len(part)], second[: len(part)]
+            np.copyto(x, part)
+            np.copyto(y, b[start : start + block])
+            yield np.subtract(x, y, out=x)
 
 
 def _sum_squared_steps(blocks) -> float:
