@@ -7,6 +7,7 @@ usable image raises :class:`mri.errors.ImageLoadError` with the path in the mess
 
 from __future__ import annotations
 
+import math
 import struct
 from functools import lru_cache
 from pathlib import Path
@@ -258,7 +259,7 @@ def _numbers(ds, keyword: str, count: int, path, frame: int = 0) -> tuple[float,
         numbers = tuple(float(v) for v in values)
     except (TypeError, ValueError):
         numbers = ()
-    if len(numbers) != count or not all(np.isfinite(numbers)):
+    if len(numbers) != count or not all(math.isfinite(v) for v in numbers):
         raise ImageLoadError(f"{path}: {keyword} = {value!r}: must be {count} finite number(s)")
     return numbers
 
