@@ -67,6 +67,15 @@ def detection_threshold(image: np.ndarray) -> float:
     return lo + THRESHOLD_FRACTION * (hi - lo)
 
 
+def bounding_box(mask: np.ndarray) -> tuple[slice, slice] | None:
+    """The rows and columns (slices) of the smallest box holding every True pixel of a 2-D
+    boolean mask; None when there is none."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return None
+    return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
+
+
 def above(image: np.ndarray, threshold: float) -> np.ndarray:
     """The pixels of ``image`` above ``threshold``, compared in float64 whatever the image's
     type (a float32 comparison would round the threshold to float32)."""
@@ -82,19 +91,19 @@ def fill_holes(mask: np.ndarray) -> np.ndarray:
     (plus a one-pixel frame) is labelled: a background region inside it that reaches the
     frame is connected to the outside.
     """
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
+    box = bounding_box(mask)
+    if box is None:
         return mask.copy()
-    r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
-    box = mask[r0:r1, c0:c1]
-    if _runs(box) == rows.size or _runs(box.T) == cols.size:
+    region = mask[box]
+    nonempty_rows, nonempty_cols = np.count_nonzero(region.any(axis=1)), np.count_nonzero(region.any(axis=0))
+    if _runs(region) == nonempty_rows or _runs(region.T) == nonempty_cols:
         return mask.copy()
-    labels, count = ndimage.label(~np.pad(box, 1))
+    labels, count = ndimage.label(~np.pad(region, 1))
     outside = np.zeros(count + 1, dtype=bool)
     outside[labels[0, 0]] = True  # the frame is one connected background region
     outside[0] = False  # label 0 is the mask itself
     filled = mask.copy()
-    filled[r0:r1, c0:c1] = ~outside[labels[1:-1, 1:-1]]
+    filled[box] = ~outside[labels[1:-1, 1:-1]]
     return filled
 
 
@@ -107,10 +116,9 @@ def largest_component(mask: np.ndarray) -> np.ndarray:
     """The largest 4-connected region of a boolean mask (an error when it is empty); of
     regions of equal size, the first in raster order. Only the mask's bounding box is
     labelled."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
+    box = bounding_box(mask)
+    if box is None:
         raise RoiError("automatic phantom mask: no pixel above the threshold")
-    box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
     region = mask[box]
     # n pixels hold at most n / 2 regions (a checkerboard): 16-bit labels when they suffice
     labels, count = ndimage.label(region, output=np.uint16 if region.size <= 2 * 65535 else np.int32)

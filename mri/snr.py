@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mri.errors import MeasurementError, RoiError
+from mri.phantom import bounding_box
 from mri.roi import Roi, RoiSpec, parse_roi, resolve_roi
 
 PAIR_METHODS = ("thesis", "nema")
@@ -285,24 +286,22 @@ def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure
 
 def measure_roi(a: np.ndarray, b: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
     """Signal, noise and SNR of one ROI of the pair a, b by a pair method (eq 93: SNR = S /
-    Noise). V = a - b is formed in float64 over the ROI only: a rectangle's block (the
-    thesis method's a block of rows at a time), a mask's bounding box."""
-    if roi.box is None:
-        rows, cols = np.flatnonzero(roi.mask.any(axis=1)), np.flatnonzero(roi.mask.any(axis=0))
-        box = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)) if rows.size else (slice(0), slice(0))
-        diff, mask = np.subtract(a[box], b[box], dtype=np.float64), roi.mask[box]
-    if method == "thesis" and roi.box is not None:
-        block_a, block_b = roi.pixels(a), roi.pixels(b)
-        noise = _thesis_sd(_sum_squared_steps(_row_blocks(block_a, block_b)),
-                           block_a.shape[0] * (block_a.shape[1] - 1))
-    elif method == "thesis":
-        noise = thesis_noise(diff, mask)
-    elif method == "nema":
-        values = np.subtract(roi.pixels(a), roi.pixels(b), dtype=np.float64) if roi.box else diff[mask]
-        noise = nema_noise(values)
-    else:
+    Noise). V = a - b is formed in float64 over the ROI only: a rectangle's block (by the
+    thesis method a block of rows at a time), or a mask's bounding box."""
+    if method not in PAIR_METHODS:
         raise MeasurementError(f"method {method!r} is not a pair method; use one of "
                                f"{', '.join(PAIR_METHODS)}")
+    if roi.box is not None:
+        block_a, block_b = roi.pixels(a), roi.pixels(b)
+        if method == "thesis":
+            rows, cols = block_a.shape
+            noise = _thesis_sd(_sum_squared_steps(_row_blocks(block_a, block_b)), rows * (cols - 1))
+        else:
+            noise = nema_noise(np.subtract(block_a, block_b, dtype=np.float64))
+    else:
+        box = bounding_box(roi.mask) or (slice(0, 0), slice(0, 0))
+        diff, mask = np.subtract(a[box], b[box], dtype=np.float64), roi.mask[box]
+        noise = thesis_noise(diff, mask) if method == "thesis" else nema_noise(diff, mask)
     return _roi_measure(roi, a, noise)
 
 
