@@ -63,9 +63,10 @@ def load_image(path) -> MriImage:
 # --------------------------------------------------------------------------- DICOM
 
 
-#: Every top-level attribute the DICOM loaders read. pydicom parses only these (the rest of
-#: the header, such as a scanner's private blocks, is skipped: a quarter of the read time of
-#: a small image); pixel data that needs pydicom's decoders is read again in full.
+#: Every top-level attribute the DICOM loaders read. pydicom reads only these values (the
+#: rest of the header, such as a scanner's private blocks, is skipped: 6 % of the read time
+#: of the real Siemens image, and less memory); pixel data that needs pydicom's decoders is
+#: read again in full.
 DICOM_READ_KEYWORDS = frozenset(
     ("SpecificCharacterSet", "SOPClassUID", "SeriesInstanceUID", "InstanceNumber",
      "SeriesNumber", "SeriesDescription", "Manufacturer", "ManufacturerModelName",
@@ -109,8 +110,8 @@ def _attribute(ds, keyword: str):
 
     Numbers stored as text (VR DS, IS) come as their text (a string, or a list of strings
     for several values), US numbers as ints and OB/OW data as its bytes, read straight from
-    the raw element: pydicom's conversion costs about 8 us an element, a third of a small
-    image's metadata. Anything else (other VRs, implicit-VR files) is pydicom's value.
+    the raw element (pydicom's conversion costs about 8 us an element: 0.2 ms of a 256 x 256
+    image's 0.8 ms load). Anything else (other VRs, implicit-VR files) is pydicom's value.
     """
     from pydicom.dataelem import RawDataElement
 
