@@ -155,20 +155,20 @@ def outline_points(mask: np.ndarray) -> np.ndarray:
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     if rows.size == 0:
         return np.empty((0, 2))
-    box = mask[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
-    left, right = _edges(box, rows - rows[0])
-    top, bottom = _edges(np.ascontiguousarray(box.T), cols - cols[0])  # contiguous: fast argmax
+    region = mask[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    left, right = _edges(region, rows - rows[0])
+    top, bottom = _edges(np.ascontiguousarray(region.T), cols - cols[0])  # contiguous: fast argmax
     left, right, top, bottom = left + cols[0], right + cols[0], top + rows[0], bottom + rows[0]
     rows, cols = rows.astype(float), cols.astype(float)
     return np.concatenate([np.column_stack([rows, left]), np.column_stack([rows, right]),
                            np.column_stack([top, cols]), np.column_stack([bottom, cols])])
 
 
-def _edges(box: np.ndarray, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _edges(region: np.ndarray, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outer pixel edges (fractional index along axis 1) of the first and last True pixel of
-    each row ``lines`` of the 2-D boolean ``box`` (each of these rows holds one)."""
-    first = np.argmax(box, axis=1)[lines] - 0.5
-    last = box.shape[1] - np.argmax(box[:, ::-1], axis=1)[lines] - 0.5
+    each row ``lines`` of the 2-D boolean ``region`` (each of these rows holds one)."""
+    first = np.argmax(region, axis=1)[lines] - 0.5
+    last = region.shape[1] - np.argmax(region[:, ::-1], axis=1)[lines] - 0.5
     return first, last
 
 
