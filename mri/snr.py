@@ -29,7 +29,9 @@ Magnitude images have Rician, not Gaussian, noise: every method overestimates a 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from statistics import fmean
 
 import numpy as np
 
@@ -265,7 +267,7 @@ def _sums(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 def _finite(value: float, stage: str) -> float:
     """``value``, or an error naming the stage that overflowed (pixels near 1e154 or more
     overflow float64 when squared)."""
-    if not np.isfinite(value):
+    if not math.isfinite(value):
         raise MeasurementError(f"{stage} is {value}: the pixel values overflow float64 "
                                "arithmetic; scale the images down")
     return value
@@ -308,9 +310,9 @@ def measure_roi(a: np.ndarray, b: np.ndarray, roi: Roi, method: str) -> RoiMeasu
 def _method_result(method, image, measures, noise_rois=()) -> MethodResult:
     return MethodResult(
         method, image, tuple(measures),
-        signal=float(np.mean([m.signal for m in measures])),
-        noise=float(np.mean([m.noise for m in measures])),
-        snr=float(np.mean([m.snr for m in measures])),
+        signal=fmean(m.signal for m in measures),
+        noise=fmean(m.noise for m in measures),
+        snr=fmean(m.snr for m in measures),
         noise_rois=tuple(noise_rois),
     )
 
@@ -384,15 +386,15 @@ def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | Non
     for method in dict.fromkeys(m.method for m in measured[0].methods):
         results = [m for s in measured for m in s.methods if m.method == method]
         snrs = [m.snr for m in results]
-        mean = float(np.mean(snrs))
+        mean = fmean(snrs)
         summaries.append(
             MethodSummary(
                 method,
                 snr=mean,
-                snr_min=float(np.min(snrs)),
-                snr_max=float(np.max(snrs)),
-                signal=float(np.mean([m.signal for m in results])),
-                noise=float(np.mean([m.noise for m in results])),
+                snr_min=min(snrs),
+                snr_max=max(snrs),
+                signal=fmean(m.signal for m in results),
+                noise=fmean(m.noise for m in results),
                 snr_normalised=None if normalisation_factor is None else mean * normalisation_factor,
             )
         )
