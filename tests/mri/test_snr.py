@@ -77,6 +77,24 @@ def test_thesis_noise_counts_only_pairs_inside_the_roi():
         thesis_noise(v, lonely)
 
 
+def test_thesis_and_difference_sums_over_row_blocks_equal_the_whole_image_formulas():
+    # a - b and its neighbour differences are summed a block of rows at a time (several
+    # blocks; one row a block when a row exceeds a block); the results are the formulas'
+    from mri.snr import BLOCK_ELEMENTS, sum_abs_difference
+
+    rng = np.random.default_rng(12)
+    for shape in ((300, 50), (5, BLOCK_ELEMENTS + 7), (1, 3)):
+        a = rng.integers(0, 4000, shape).astype(np.float32)
+        b = (a + rng.normal(0, 20, shape)).astype(np.float32)
+        diff = a.astype(np.float64) - b
+        steps = np.diff(diff, axis=1)
+        expected = np.sqrt(np.sum(steps**2) / (2 * steps.size)) / np.sqrt(2)
+        assert thesis_noise(diff) == pytest.approx(expected, rel=1e-13)
+        roi = Roi("whole", None, (0, 0, *shape), shape)
+        assert measure_roi(a, b, roi, "thesis").noise == pytest.approx(expected, rel=1e-13)
+        assert sum_abs_difference(a, b) == pytest.approx(np.abs(diff).sum(), rel=1e-13)
+
+
 def test_nema_noise_is_sample_std_over_sqrt2():
     v = np.array([[1.0, -1.0, 1.0, -1.0]])
     # sample std with ddof=1 of four +-1 values: sqrt(4 / 3)
@@ -278,8 +296,8 @@ def test_volume_slice_whose_boxes_leave_the_phantom_is_skipped_with_its_reason()
 
 
 def test_volume_slices_measure_as_single_images():
-    # a volume's slices share one float64 workspace; each must measure as it does alone
-    # (float32 pixels as loaded, every pair and single-image method, a skipped slice between)
+    # each slice of a volume measures as it does alone (float32 pixels as loaded, every pair
+    # and single-image method, a skipped slice between)
     from tests.mri.phantoms import noisy_pair, phantom
 
     truths = [phantom(signal=s) for s in (400.0, 900.0)] + [np.zeros((256, 256)), phantom(kind="rectangle")]
