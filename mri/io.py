@@ -106,6 +106,10 @@ def _tag(keyword: str):
     return Tag(keyword)
 
 
+#: Tags of the enhanced multi-frame functional-group sequences.
+_PER_FRAME_GROUPS, _SHARED_GROUPS = 0x52009230, 0x52009229
+
+
 class _Header:
     """One DICOM dataset as the loaders read it: pydicom's dataset ``ds``, its top-level
     elements indexed once, and whether it is an enhanced multi-frame file (attributes in
@@ -141,10 +145,6 @@ class _Header:
             if vr in ("OB", "OW"):
                 return raw
         return self.ds[element.tag].value
-
-
-#: Tags of the enhanced multi-frame functional-group sequences.
-_PER_FRAME_GROUPS, _SHARED_GROUPS = 0x52009230, 0x52009229
 
 
 def _lookup(header: _Header, keyword: str, frame: int = 0):
