@@ -67,105 +67,172 @@ def detection_threshold(image: np.ndarray) -> float:
     return lo + THRESHOLD_FRACTION * (hi - lo)
 
 
+def bounding_box(mask: np.ndarray) -> tuple[slice, slice] | None:
+    """The rows and columns (slices) of the smallest box holding every True pixel of a 2-D
+    boolean mask; None when there is none."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return None
+    return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
+
+
+def above(image: np.ndarray, threshold: float) -> np.ndarray:
+    """The pixels of ``image`` above ``threshold``, compared in float64 whatever the image's
+    type (a float32 comparison would round the threshold to float32)."""
+    return np.greater(image, threshold, signature="dd->?")
+
+
 def fill_holes(mask: np.ndarray) -> np.ndarray:
     """``mask`` with every background region that does not touch the image border filled.
 
-    Only the bounding box of ``mask`` (plus a one-pixel frame) is labelled: a background
-    region inside it that reaches the frame is connected to the outside.
+    A hole pixel has mask pixels left and right of it in its row, and above and below it in
+    its column: a mask whose every row, or every column, is one run of pixels has none (a
+    phantom without inserts; no labelling). Otherwise only the bounding box of ``mask``
+    (plus a one-pixel frame) is labelled: a background region inside it that reaches the
+    frame is connected to the outside.
     """
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
+    box = bounding_box(mask)
+    if box is None:
         return mask.copy()
-    r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
-    labels, count = ndimage.label(~np.pad(mask[r0:r1, c0:c1], 1))
+    region = mask[box]
+    nonempty_rows, nonempty_cols = np.count_nonzero(region.any(axis=1)), np.count_nonzero(region.any(axis=0))
+    if _runs(region) == nonempty_rows or _runs(region.T) == nonempty_cols:
+        return mask.copy()
+    labels, count = ndimage.label(~np.pad(region, 1))
     outside = np.zeros(count + 1, dtype=bool)
     outside[labels[0, 0]] = True  # the frame is one connected background region
     outside[0] = False  # label 0 is the mask itself
     filled = mask.copy()
-    filled[r0:r1, c0:c1] = ~outside[labels[1:-1, 1:-1]]
+    filled[box] = ~outside[labels[1:-1, 1:-1]]
     return filled
 
 
+def _runs(mask: np.ndarray) -> int:
+    """Number of runs of consecutive True pixels along the rows of a 2-D boolean mask."""
+    return int(np.count_nonzero(mask[:, 0])) + int(np.count_nonzero(mask[:, 1:] > mask[:, :-1]))
+
+
 def largest_component(mask: np.ndarray) -> np.ndarray:
-    """The largest 4-connected region of a boolean mask (an error when it is empty)."""
-    labels, count = ndimage.label(mask)
-    if count == 0:
+    """The largest 4-connected region of a boolean mask (an error when it is empty); of
+    regions of equal size, the first in raster order. Only the mask's bounding box is
+    labelled."""
+    box = bounding_box(mask)
+    if box is None:
         raise RoiError("automatic phantom mask: no pixel above the threshold")
-    sizes = np.bincount(labels.ravel())
-    sizes[0] = 0
-    return labels == int(np.argmax(sizes))
+    region = mask[box]
+    # n pixels hold at most n / 2 regions (a checkerboard): 16-bit labels when they suffice
+    labels, count = ndimage.label(region, output=np.uint16 if region.size <= 2 * 65535 else np.int32)
+    component = np.zeros_like(mask)
+    component[box] = labels == _largest_label(labels, count)
+    return component
+
+
+#: Up to this many regions, their sizes are counted one region at a time.
+FEW_REGIONS = 8
+
+
+def _largest_label(labels: np.ndarray, count: int) -> int:
+    """The label (1 to ``count``) of the largest region of ``labels``, the lowest of equal ones."""
+    if count <= FEW_REGIONS:  # one pass a region: no temporaries as large as the labels
+        sizes = [np.count_nonzero(labels == k) for k in range(1, count + 1)]
+        return 1 + int(np.argmax(sizes))
+    # many regions: sizes by sorting (np.bincount's one counter per label stalls on a few
+    # large regions)
+    values, sizes = np.unique(labels, return_counts=True)
+    sizes[values == 0] = 0
+    return int(values[int(np.argmax(sizes))])
 
 
 def phantom_mask(image: np.ndarray) -> np.ndarray:
     """Phantom pixels of a 2-D image: above :func:`detection_threshold`, the largest region,
     holes filled."""
-    return fill_holes(largest_component(image > detection_threshold(image)))
+    return fill_holes(largest_component(above(image, detection_threshold(image))))
 
 
 def outline_points(mask: np.ndarray) -> np.ndarray:
     """(N, 2) array of (row, col) outline points: the outer edge of the outermost mask pixel
     in each row (left, right) and column (top, bottom)."""
-    points = []
-    for axis in (1, 0):  # axis 1: scan along each row; axis 0: along each column
-        has = mask.any(axis=axis)
-        lines = np.flatnonzero(has).astype(float)
-        m = mask if axis == 1 else mask.T
-        first = np.argmax(m[has], axis=1) - 0.5
-        last = m.shape[1] - np.argmax(m[has][:, ::-1], axis=1) - 0.5
-        for edge in (first, last):
-            pts = np.column_stack([lines, edge]) if axis == 1 else np.column_stack([edge, lines])
-            points.append(pts)
-    return np.concatenate(points)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return np.empty((0, 2))
+    region = mask[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    left, right = _edges(region, rows - rows[0])
+    top, bottom = _edges(np.ascontiguousarray(region.T), cols - cols[0])  # contiguous: fast argmax
+    left, right, top, bottom = left + cols[0], right + cols[0], top + rows[0], bottom + rows[0]
+    rows, cols = rows.astype(float), cols.astype(float)
+    return np.concatenate([np.column_stack([rows, left]), np.column_stack([rows, right]),
+                           np.column_stack([top, cols]), np.column_stack([bottom, cols])])
 
 
-def _kasa(points: np.ndarray) -> tuple[float, float, float]:
-    """Least-squares circle (row, col, radius) through points, from x^2 + y^2 = a x + b y + c."""
-    r, c = points[:, 0], points[:, 1]
-    r0, c0 = r.mean(), c.mean()  # centred for conditioning
-    x, y = r - r0, c - c0
-    design = np.column_stack([x, y, np.ones_like(x)])
-    (a, b, k), *_ = np.linalg.lstsq(design, x * x + y * y, rcond=None)
-    return r0 + a / 2, c0 + b / 2, float(np.sqrt(max(k + (a * a + b * b) / 4, 0.0)))
+def _edges(region: np.ndarray, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Outer pixel edges (fractional index along axis 1) of the first and last True pixel of
+    each row ``lines`` of the 2-D boolean ``region`` (each of these rows holds one)."""
+    first = np.argmax(region, axis=1)[lines] - 0.5
+    last = region.shape[1] - np.argmax(region[:, ::-1], axis=1)[lines] - 0.5
+    return first, last
+
+
+def _kasa(columns: np.ndarray) -> tuple[float, float, float]:
+    """Least-squares circle (centre x, y, radius) through points given as the rows x, y, 1,
+    x^2 + y^2 of ``columns`` (4 x N), from x^2 + y^2 = a x + b y + k, solved by its 3 x 3
+    normal equations (well conditioned when x and y are centred)."""
+    gram = columns @ columns.T  # every sum of the normal equations at once
+    a, b, k = np.linalg.solve(gram[:3, :3], gram[:3, 3])
+    return a / 2, b / 2, float(np.sqrt(max(k + (a * a + b * b) / 4, 0.0)))
+
+
+def _median(values: np.ndarray) -> float:
+    """Median of a 1-D array (np.median's value, by one partition without its overhead)."""
+    n = values.size
+    middle = np.partition(values, (n - 1) // 2 if n % 2 else (n // 2 - 1, n // 2))
+    return float(middle[n // 2]) if n % 2 else float((middle[n // 2 - 1] + middle[n // 2]) / 2)
 
 
 def fit_circle(points: np.ndarray) -> tuple[tuple[float, float, float], float]:
     """Robust circle (row, col, radius) and the fraction of points within OUTLIER_PX of it."""
+    centre = points.mean(axis=0)  # the fit works in coordinates centred here
+    x, y = points[:, 0] - centre[0], points[:, 1] - centre[1]
+    columns = np.stack([x, y, np.ones_like(x), x * x + y * y])
     keep = np.ones(len(points), dtype=bool)
     for _ in range(CIRCLE_REFITS + 1):
-        row, col, radius = _kasa(points[keep])
-        residual = np.abs(np.hypot(points[:, 0] - row, points[:, 1] - col) - radius)
-        mad = 1.4826 * np.median(residual[keep])
+        u, v, radius = _kasa(columns[:, keep])
+        residual = np.abs(np.hypot(x - u, y - v) - radius)
+        mad = 1.4826 * _median(residual[keep])
         new_keep = residual <= max(OUTLIER_PX, 3 * mad)
-        if new_keep.sum() < 8 or np.array_equal(new_keep, keep):
+        if np.count_nonzero(new_keep) < 8 or np.array_equal(new_keep, keep):
             break
         keep = new_keep
-    return (row, col, radius), float(np.mean(residual <= OUTLIER_PX))
+    circle = (float(centre[0] + u), float(centre[1] + v), radius)
+    return circle, float(np.count_nonzero(residual <= OUTLIER_PX) / len(points))
 
 
-def fit_rectangle(points: np.ndarray, mask: np.ndarray) -> tuple[tuple[float, float, float, float], float]:
+def fit_rectangle(points: np.ndarray) -> tuple[tuple[float, float, float, float], float]:
     """Axis-aligned rectangle (top, bottom, left, right edges, pixels) from the median outline
     of each side, and the fraction of outline points within OUTLIER_PX of it."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    top, bottom = rows[0] - 0.5, rows[-1] + 0.5
-    left, right = cols[0] - 0.5, cols[-1] + 0.5
-
-    def side(lines_lo, lines_hi, line_index, edge_index, at_edge):
-        # outline points of the side at_edge, on the central 60 % of the lines
-        span = lines_hi - lines_lo
-        sel = (points[:, line_index] > lines_lo + 0.2 * span) & (points[:, line_index] < lines_hi - 0.2 * span)
-        values = points[sel, edge_index]
-        near = values[np.abs(values - at_edge) < 0.25 * span] if values.size else values
-        return float(np.median(near)) if near.size else at_edge
-
-    left, right = side(top, bottom, 0, 1, left), side(top, bottom, 0, 1, right)
-    top, bottom = side(left, right, 1, 0, top), side(left, right, 1, 0, bottom)
     r, c = points[:, 0], points[:, 1]
+    bounds = r.min(), r.max()  # the top and bottom edges of the mask's bounding box
+    left, right = _sides(r, c, *bounds, (c.min(), c.max()))
+    top, bottom = _sides(c, r, left, right, bounds)
     inside_r, inside_c = (r >= top - OUTLIER_PX) & (r <= bottom + OUTLIER_PX), (c >= left - OUTLIER_PX) & (c <= right + OUTLIER_PX)
     on_side = (
         (inside_r & ((np.abs(c - left) <= OUTLIER_PX) | (np.abs(c - right) <= OUTLIER_PX)))
         | (inside_c & ((np.abs(r - top) <= OUTLIER_PX) | (np.abs(r - bottom) <= OUTLIER_PX)))
     )
     return (top, bottom, left, right), float(np.mean(on_side))
+
+
+def _sides(lines: np.ndarray, edges: np.ndarray, lo: float, hi: float,
+           at_edges: tuple[float, float]) -> tuple[float, float]:
+    """Two opposite sides of a rectangle (pixels): the median ``edges`` coordinate of the
+    outline points near each bounding edge ``at_edges``, on the central 60 % of the lines
+    between ``lo`` and ``hi``; the bounding edge itself when no point is near it."""
+    span = hi - lo
+    values = edges[(lines > lo + 0.2 * span) & (lines < hi - 0.2 * span)]
+    sides = []
+    for at_edge in at_edges:
+        near = values[np.abs(values - at_edge) < 0.25 * span]
+        sides.append(_median(near) if near.size else float(at_edge))
+    return sides[0], sides[1]
 
 
 #: Slices at least this many pixels on each side are searched at half resolution (2 x 2
@@ -179,8 +246,12 @@ def find_phantom(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
     if min(rows, cols) < BIN_FROM_PX:
         return _find(image)
     even = image[: rows // 2 * 2, : cols // 2 * 2]
-    # the 2 x 2 means as three strided additions (a tenth of the time of a reshaped mean)
-    binned = (even[0::2, 0::2] + even[1::2, 0::2] + even[0::2, 1::2] + even[1::2, 1::2]) * 0.25
+    # the 2 x 2 means as three strided additions (a tenth of the time of a reshaped mean),
+    # in float64 whatever the image's type
+    binned = np.add(even[0::2, 0::2], even[1::2, 0::2], dtype=np.float64)
+    binned += even[0::2, 1::2]
+    binned += even[1::2, 1::2]
+    binned *= 0.25
     small, fit = _find(binned)
     mask = np.zeros(image.shape, dtype=bool)
     mask[: rows // 2 * 2, : cols // 2 * 2] = small.repeat(2, axis=0).repeat(2, axis=1)
@@ -191,7 +262,7 @@ def find_phantom(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
 
 def _find(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
     threshold = detection_threshold(image)
-    mask = fill_holes(largest_component(image > threshold))
+    mask = fill_holes(largest_component(above(image, threshold)))
     if mask[0].any() and mask[-1].any() and mask[:, 0].any() and mask[:, -1].any():
         raise RoiError(
             f"automatic phantom mask: the region above the threshold {threshold:.4g} reaches all "
@@ -200,7 +271,7 @@ def _find(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
         )
     points = outline_points(mask)
     (row, col, radius), circle_in = fit_circle(points)
-    (top, bottom, left, right), rect_in = fit_rectangle(points, mask)
+    (top, bottom, left, right), rect_in = fit_rectangle(points)
     if circle_in >= rect_in:
         fit = PhantomFit((float(row), float(col)), "circle", (radius,), circle_in, threshold)
     else:

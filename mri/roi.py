@@ -76,12 +76,29 @@ class RoiSpec:
 
 @dataclass(frozen=True, eq=False)
 class Roi:
-    """A resolved ROI on one slice: its label (reproducible ROI text), boolean pixel mask and,
-    for rectangles, the box (row, col, height, width) in pixels that lets measures slice."""
+    """A resolved ROI on one slice: its label (reproducible ROI text) and its pixels, as a
+    boolean ``pixel_mask`` or, for rectangles, as the box (row, col, height, width) in pixels
+    of an image of ``shape`` (rows, cols), which measures slice directly. :attr:`mask` is
+    the boolean mask either way."""
 
     label: str
-    mask: np.ndarray
+    pixel_mask: np.ndarray | None = None
     box: tuple[int, int, int, int] | None = None
+    shape: tuple[int, int] | None = None
+
+    def __post_init__(self):
+        if self.pixel_mask is None and (self.box is None or self.shape is None):
+            raise ValueError(f"ROI {self.label!r}: give a pixel mask, or a box and the image shape")
+
+    @property
+    def mask(self) -> np.ndarray:
+        """The boolean mask of the image (a box's is made when asked for, clipped to the image)."""
+        if self.pixel_mask is not None:
+            return self.pixel_mask
+        row, col, height, width = self.box
+        mask = np.zeros(self.shape, dtype=bool)
+        mask[max(row, 0) : max(row + height, 0), max(col, 0) : max(col + width, 0)] = True
+        return mask
 
     def pixels(self, image: np.ndarray) -> np.ndarray:
         """The ROI's part of ``image``: a 2-D block for boxes, a 1-D selection otherwise."""
@@ -151,16 +168,14 @@ def _eroded(mask: np.ndarray, radius_px: tuple[float, float]) -> np.ndarray:
 # --------------------------------------------------------------------------- resolution
 
 
-def _box_mask(shape, row: int, col: int, height: int, width: int, text: str) -> np.ndarray:
+def _check_box(shape, row: int, col: int, height: int, width: int, text: str) -> None:
+    """An error naming ROI ``text`` when the box leaves the image of ``shape``."""
     rows, cols = shape
     if row < 0 or col < 0 or row + height > rows or col + width > cols:
         raise RoiError(
             f"ROI {text!r}: box rows {row}-{row + height - 1}, columns {col}-{col + width - 1} "
             f"extend outside the {rows} x {cols} image"
         )
-    mask = np.zeros(shape, dtype=bool)
-    mask[row : row + height, col : col + width] = True
-    return mask
 
 
 def _box_label(row, col, height, width) -> str:
@@ -179,7 +194,8 @@ def _central_box(spec: RoiSpec, shape, spacing) -> Roi:
         )
     row, col = (shape[0] - height) // 2, (shape[1] - width) // 2
     box = (row, col, height, width)
-    return Roi(f"{spec.text} = {_box_label(*box)}", _box_mask(shape, *box, spec.text), box)
+    _check_box(shape, *box, spec.text)
+    return Roi(f"{spec.text} = {_box_label(*box)}", None, box, shape)
 
 
 def _central_circle(spec: RoiSpec, shape, spacing) -> Roi:
@@ -228,14 +244,10 @@ def _nema5(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...]:
         label = f"nema5 {name} {_box_label(*box)}"
         rows, cols = image.shape
         if box[0] < 0 or box[1] < 0 or box[0] + box[2] > rows or box[1] + box[3] > cols:
+            outside.append(name)  # its mask (for the figure) is clipped to the image
+        elif not phantom[box[0] : box[0] + box[2], box[1] : box[1] + box[3]].all():
             outside.append(name)
-            mask = np.zeros(image.shape, dtype=bool)
-            mask[max(box[0], 0):max(box[0] + box[2], 0), max(box[1], 0):max(box[1] + box[3], 0)] = True
-        else:
-            mask = _box_mask(image.shape, *box, label)
-            if not phantom[box[0] : box[0] + box[2], box[1] : box[1] + box[3]].all():
-                outside.append(name)
-        rois.append(Roi(label, mask, box))
+        rois.append(Roi(label, None, box, image.shape))
     if outside:
         centre = ", ".join(f"{v:.1f}" for v in fit.centre_px)
         raise BoxOutsidePhantomError(
@@ -269,7 +281,8 @@ def _corners(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...
                 f"{BACKGROUND_MARGIN_PX} px of the phantom; give smaller corners:SIZE or "
                 "explicit background boxes"
             )
-        rois.append(Roi(label, _box_mask(image.shape, *box, label), box))
+        _check_box(image.shape, *box, label)
+        rois.append(Roi(label, None, box, image.shape))
     return tuple(rois)
 
 
@@ -295,9 +308,10 @@ def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0,
     if found is None and spec.kind in ("nema5", "corners"):
         found = find_phantom(image)
     if spec.kind == "whole":
-        rois = (Roi("whole", np.ones(shape, dtype=bool), (0, 0, *shape)),)
+        rois = (Roi("whole", None, (0, 0, *shape), shape),)
     elif spec.kind == "box":
-        rois = (Roi(spec.text, _box_mask(shape, *spec.box, spec.text), spec.box),)
+        _check_box(shape, *spec.box, spec.text)
+        rois = (Roi(spec.text, None, spec.box, shape),)
     elif spec.kind == "central-box":
         rois = (_central_box(spec, shape, spacing),)
     elif spec.kind == "central-circle":

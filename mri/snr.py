@@ -29,11 +29,14 @@ Magnitude images have Rician, not Gaussian, noise: every method overestimates a 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from statistics import fmean
 
 import numpy as np
 
 from mri.errors import MeasurementError, RoiError
+from mri.phantom import bounding_box
 from mri.roi import Roi, RoiSpec, parse_roi, resolve_roi
 
 PAIR_METHODS = ("thesis", "nema")
@@ -136,18 +139,68 @@ def thesis_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
     Only neighbour pairs with both pixels in ``mask`` count (all n (m - 1) pairs of the n x m
     array ``diff`` when ``mask`` is None). Units: those of the pixels.
     """
-    step = np.diff(diff, axis=1)
     if mask is None:
-        n_pairs, total = step.size, float(np.einsum("ij,ij->", step, step))
-    else:
-        pairs = mask[:, 1:] & mask[:, :-1]
-        n_pairs, total = int(pairs.sum()), float(np.sum(step[pairs] ** 2))
+        return _thesis_sd(_sum_squared_steps(_row_blocks(diff)), diff.shape[0] * (diff.shape[1] - 1))
+    step = np.diff(diff, axis=1)
+    pairs = mask[:, 1:] & mask[:, :-1]
+    return _thesis_sd(float(np.sum(step[pairs] ** 2)), int(pairs.sum()))
+
+
+def _thesis_sd(total: float, n_pairs: int) -> float:
+    """Eqs 91-92 from the sum of the n_pairs squared neighbour differences (pixel units^2)."""
     if n_pairs == 0:
         raise MeasurementError(
             "thesis method: the ROI holds no two horizontally adjacent pixels (eq 91 needs them)"
         )
     sd = np.sqrt(total / (2.0 * n_pairs))
     return float(sd / np.sqrt(2.0))
+
+
+#: Elements (float64) in a block of rows of the slice-wide sums: 64 kB blocks stay in cache
+#: and reuse memory (a slice-sized temporary would be fresh pages, a page fault per 4 kB,
+#: every time).
+BLOCK_ELEMENTS = 8192
+
+
+def _row_blocks(a: np.ndarray, b: np.ndarray | None = None):
+    """Blocks of rows of the 2-D a - b (of a when ``b`` is None) in float64; the blocks of a
+    difference are views of one buffer, valid until the next block."""
+    rows, cols = a.shape
+    block = max(1, BLOCK_ELEMENTS // cols)
+    if b is not None:  # a and b are cast into two buffers (a ufunc's casting would add two)
+        first, second = np.empty((min(block, rows), cols)), np.empty((min(block, rows), cols))
+    for start in range(0, rows, block):
+        part = a[start : start + block]
+        if b is None:
+            yield part
+        else:
+            x, y = first[: len(part)], second[: len(part)]
+            np.copyto(x, part)
+            np.copyto(y, b[start : start + block])
+            yield np.subtract(x, y, out=x)
+
+
+def _sum_squared_steps(blocks) -> float:
+    """Sum over the rows i and columns j of (V[i, j + 1] - V[i, j])^2 (pixel units squared)
+    of an image V given as blocks of rows (:func:`_row_blocks`)."""
+    total, buffer = 0.0, None
+    for part in blocks:
+        rows, cols = part.shape
+        if buffer is None:
+            buffer = np.empty(part.size)
+        if part.flags.c_contiguous:  # steps along the flat block, then the row ends left out
+            flat = part.reshape(-1)
+            np.subtract(flat[1:], flat[:-1], out=buffer[: part.size - 1])
+            step = buffer[: part.size].reshape(rows, cols)[:, : cols - 1]
+        else:
+            step = np.subtract(part[:, 1:], part[:, :-1], out=buffer[: rows * (cols - 1)].reshape(rows, cols - 1))
+        total += float(np.einsum("ij,ij->", step, step))
+    return total
+
+
+def sum_abs_difference(a: np.ndarray, b: np.ndarray) -> float:
+    """sum |a - b| over a 2-D slice, in float64 (pixel units)."""
+    return float(sum(np.sum(np.abs(part, out=part)) for part in _row_blocks(a, b)))
 
 
 def nema_noise(diff: np.ndarray, mask: np.ndarray | None = None) -> float:
@@ -205,8 +258,7 @@ def difference_percent(a: np.ndarray, b: np.ndarray) -> float:
 
 def _sums(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     """sum |a - b| and sum a of one slice, in float64."""
-    a = a.astype(np.float64, copy=False)
-    return float(np.sum(np.abs(a - b))), float(np.sum(a))
+    return sum_abs_difference(a, b), float(np.sum(a, dtype=np.float64))
 
 
 # --------------------------------------------------------------------------- measures
@@ -215,7 +267,7 @@ def _sums(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 def _finite(value: float, stage: str) -> float:
     """``value``, or an error naming the stage that overflowed (pixels near 1e154 or more
     overflow float64 when squared)."""
-    if not np.isfinite(value):
+    if not math.isfinite(value):
         raise MeasurementError(f"{stage} is {value}: the pixel values overflow float64 "
                                "arithmetic; scale the images down")
     return value
@@ -228,41 +280,58 @@ def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure
             f"zero noise in ROI {roi.label!r}: the noise image is constant there "
             "(identical images a and b, or a synthetic image), SNR is undefined"
         )
-    signal = _finite(float(np.mean(roi.pixels(signal_image))), f"the signal of ROI {roi.label!r}")
+    signal = _finite(float(np.mean(roi.pixels(signal_image), dtype=np.float64)),
+                     f"the signal of ROI {roi.label!r}")
     return RoiMeasure(roi.label, roi.n_pixels, signal, noise,
                       _finite(signal / noise, f"the SNR of ROI {roi.label!r}"))
 
 
-def measure_roi(a: np.ndarray, diff: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
-    """Signal, noise and SNR of one ROI by a pair method (eq 93: SNR = S / Noise)."""
-    noise_fn = {"thesis": thesis_noise, "nema": nema_noise}[method]
-    # a rectangle is measured on the block itself, no mask needed
-    noise = noise_fn(diff, roi.mask) if roi.box is None else noise_fn(roi.pixels(diff))
+def measure_roi(a: np.ndarray, b: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
+    """Signal, noise and SNR of one ROI of the pair a, b by a pair method (eq 93: SNR = S /
+    Noise). V = a - b is formed in float64 over the ROI only: a rectangle's block (by the
+    thesis method a block of rows at a time), or a mask's bounding box."""
+    if method not in PAIR_METHODS:
+        raise MeasurementError(f"method {method!r} is not a pair method; use one of "
+                               f"{', '.join(PAIR_METHODS)}")
+    if roi.box is not None:
+        block_a, block_b = roi.pixels(a), roi.pixels(b)
+        if method == "thesis":
+            rows, cols = block_a.shape
+            noise = _thesis_sd(_sum_squared_steps(_row_blocks(block_a, block_b)), rows * (cols - 1))
+        else:
+            noise = nema_noise(np.subtract(block_a, block_b, dtype=np.float64))
+    else:
+        box = bounding_box(roi.mask) or (slice(0, 0), slice(0, 0))
+        diff, mask = np.subtract(a[box], b[box], dtype=np.float64), roi.mask[box]
+        noise = thesis_noise(diff, mask) if method == "thesis" else nema_noise(diff, mask)
     return _roi_measure(roi, a, noise)
 
 
 def _method_result(method, image, measures, noise_rois=()) -> MethodResult:
     return MethodResult(
         method, image, tuple(measures),
-        signal=float(np.mean([m.signal for m in measures])),
-        noise=float(np.mean([m.noise for m in measures])),
-        snr=float(np.mean([m.snr for m in measures])),
+        signal=fmean(m.signal for m in measures),
+        noise=fmean(m.noise for m in measures),
+        snr=fmean(m.snr for m in measures),
         noise_rois=tuple(noise_rois),
     )
 
 
-def measure_method(a: np.ndarray, diff: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
-    """A pair method on one slice over several ROIs: mean SNR, signal and noise of the ROIs."""
+def measure_method(a: np.ndarray, b: np.ndarray, rois: tuple[Roi, ...], method: str) -> MethodResult:
+    """A pair method on one slice of a and b over several ROIs: mean SNR, signal and noise of
+    the ROIs."""
     if method not in PAIR_METHODS:
         raise MeasurementError(f"method {method!r} is not a pair method; use one of "
                                f"{', '.join(PAIR_METHODS)}")
-    return _method_result(method, "a-b", [measure_roi(a, diff, roi, method) for roi in rois])
+    return _method_result(method, "a-b", [measure_roi(a, b, roi, method) for roi in rois])
 
 
 def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: str,
                    background_rois: tuple[Roi, ...] = (),
                    kernel_px: int = SMOOTHING_KERNEL_PX) -> MethodResult:
-    """A single-image method (``smoothed`` or ``background``) on one slice of image ``name``."""
+    """A single-image method (``smoothed`` or ``background``) on one slice of image ``name``
+    (measured in float64)."""
+    image = image.astype(np.float64, copy=False)
     if method == "smoothed":
         noise_image = smoothed_noise_image(image, kernel_px)
         measures = [_roi_measure(roi, image, smoothed_noise(roi.pixels(noise_image)))
@@ -282,26 +351,26 @@ def measure_slice(
     index: int, a: np.ndarray, b: np.ndarray | None, rois_by_method: dict[str, tuple[Roi, ...]],
     background_rois: tuple[Roi, ...] = (), kernel_px: int = SMOOTHING_KERNEL_PX,
 ) -> SliceResult:
-    """All requested methods on one 2-D float64 slice (pair, or a alone when ``b`` is None);
-    ``rois_by_method``: method -> signal ROIs."""
-    diff = None if b is None else a - b
+    """All requested methods on one 2-D slice (pair, or a alone when ``b`` is None), measured
+    in float64 whatever the pixels' float type; ``rois_by_method``: method -> signal ROIs.
+    The difference a - b is formed per ROI and a block of rows at a time, never as a whole
+    slice (a fresh slice-sized temporary costs a page fault per 4 kB)."""
     results = []
     for method, rois in rois_by_method.items():
         if method in PAIR_METHODS:
-            if diff is None:
+            if b is None:
                 raise MeasurementError(f"method {method!r} needs a pair of images a and b; "
                                        f"one image takes {' or '.join(SINGLE_METHODS)}")
-            results.append(measure_method(a, diff, rois, method))
+            results.append(measure_method(a, b, rois, method))
         else:
             for name, image in (("a", a), ("b", b)):
                 if image is not None:
                     results.append(measure_single(image, name, rois, method, background_rois, kernel_px))
-    if diff is None:
-        return SliceResult(index, None, tuple(results), None, float(np.sum(a)))
-    sum_abs_difference = _finite(float(np.sum(np.abs(diff))), f"slice {index}: sum |a - b|")
-    sum_a = _finite(float(np.sum(a)), f"slice {index}: sum a")
-    return SliceResult(index, _percent(sum_abs_difference, sum_a), tuple(results),
-                       sum_abs_difference, sum_a)
+    sum_a = _finite(float(np.sum(a, dtype=np.float64)), f"slice {index}: sum a")
+    if b is None:
+        return SliceResult(index, None, tuple(results), None, sum_a)
+    total = _finite(sum_abs_difference(a, b), f"slice {index}: sum |a - b|")
+    return SliceResult(index, _percent(total, sum_a), tuple(results), total, sum_a)
 
 
 def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | None = None) -> PairResult:
@@ -317,15 +386,15 @@ def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | Non
     for method in dict.fromkeys(m.method for m in measured[0].methods):
         results = [m for s in measured for m in s.methods if m.method == method]
         snrs = [m.snr for m in results]
-        mean = float(np.mean(snrs))
+        mean = fmean(snrs)
         summaries.append(
             MethodSummary(
                 method,
                 snr=mean,
-                snr_min=float(np.min(snrs)),
-                snr_max=float(np.max(snrs)),
-                signal=float(np.mean([m.signal for m in results])),
-                noise=float(np.mean([m.noise for m in results])),
+                snr_min=min(snrs),
+                snr_max=max(snrs),
+                signal=fmean(m.signal for m in results),
+                noise=fmean(m.noise for m in results),
                 snr_normalised=None if normalisation_factor is None else mean * normalisation_factor,
             )
         )
@@ -362,18 +431,18 @@ def measure_pair(
     needs_phantom = any(spec.kind in _PHANTOM_KINDS for spec in all_specs)
     with np.errstate(over="ignore", invalid="ignore"):  # overflow is checked, not warned
         slices = [_measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs,
-                                         kernel_px, needs_phantom) for k in range(a.shape[0])]
+                                         kernel_px, needs_phantom)
+                  for k in range(a.shape[0])]
     return summarise(tuple(slices), normalisation_factor)
 
 
 def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs, kernel_px,
                            needs_phantom) -> SliceResult:
     """Slice ``k`` measured, or (in a volume) skipped with the reason its ROIs or measures
-    failed."""
+    failed; pixels are read as they are (float32 or float64) and measured in float64."""
     from mri.phantom import find_phantom
 
-    a_k = a[k].astype(np.float64)
-    b_k = None if b is None else b[k].astype(np.float64)
+    a_k, b_k = a[k], None if b is None else b[k]
     try:
         found = find_phantom(a_k) if needs_phantom else None
 
@@ -386,7 +455,7 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
         if a.shape[0] == 1:
             raise
         if b_k is None:
-            return SliceResult(k, None, (), None, float(np.sum(a_k)), skipped=str(exc))
+            return SliceResult(k, None, (), None, float(np.sum(a_k, dtype=np.float64)), skipped=str(exc))
         diff_sum, a_sum = _sums(a_k, b_k)
         return SliceResult(k, 100.0 * diff_sum / a_sum if a_sum > 0 else None,
                            (), diff_sum, a_sum, skipped=str(exc))

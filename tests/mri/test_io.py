@@ -92,6 +92,54 @@ def test_dicom_file_pixels_and_metadata(tmp_path):
     }
 
 
+def _reencoded(path, syntax):
+    """The file at ``path`` rewritten with transfer syntax ``syntax`` (RLE, big or implicit)."""
+    import warnings
+
+    import pydicom
+    from pydicom.uid import RLELossless
+
+    ds = pydicom.dcmread(path)
+    out = path.with_name(f"{path.stem}_{syntax.name.replace(' ', '_')}.dcm")
+    if syntax == RLELossless:
+        ds.compress(RLELossless)
+        ds.save_as(out)
+        return out
+    big = not syntax.is_little_endian
+    ds.PixelData = ds.pixel_array.astype(">u2" if big else "<u2").tobytes()
+    ds.file_meta.TransferSyntaxUID = syntax
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pydicom deprecates writing big endian
+        pydicom.dcmwrite(out, ds, implicit_vr=syntax.is_implicit_VR, little_endian=not big,
+                         force_encoding=True)
+    return out
+
+
+@pytest.mark.parametrize("syntax", ["1.2.840.10008.1.2.5", "1.2.840.10008.1.2.2", "1.2.840.10008.1.2"])
+def test_every_dicom_encoding_reads_as_pydicom_does(tmp_path, syntax):
+    # RLE-compressed (pydicom's decoder), explicit big endian, implicit VR: pixels and every
+    # field equal pydicom's full read (values from the raw text and bytes, skipped tags)
+    import pydicom
+    from pydicom.uid import UID
+
+    from mri.io import DICOM_ACQUISITION_FIELDS, _plain
+
+    source = write_dicom(tmp_path / "a.dcm", pattern((16, 24)), RescaleSlope=2, RescaleIntercept=-5,
+                         AcquisitionMatrix=[0, 16, 24, 0], EchoTime=[30, 60.5])
+    path = _reencoded(source, UID(syntax))
+    ds = pydicom.dcmread(path)
+    assert ds.file_meta.TransferSyntaxUID == syntax
+    img, reference = load_image(path), load_image(source)
+    np.testing.assert_array_equal(img.pixels[0], ds.pixel_array * 2.0 - 5.0)
+    for field in ("pixel_spacing_mm", "slice_thickness_mm", "orientation", "position_mm",
+                  "series", "series_number", "scanner", "acquisition"):
+        assert getattr(img, field) == getattr(reference, field), field
+    expected = {name: _plain(ds.get(keywords[0])) for name, keywords in DICOM_ACQUISITION_FIELDS.items()}
+    assert img.acquisition == {k: v for k, v in expected.items() if v is not None}
+    assert img.acquisition["echo_time_ms"] == "30.0\\60.5"
+    assert img.acquisition["acquisition_matrix"] == "0\\16\\24\\0"
+
+
 def test_dicom_series_folder_sorted_by_position_skipping_non_images(tmp_path):
     folder = tmp_path / "series"
     folder.mkdir()
@@ -369,7 +417,7 @@ def test_native_pixel_reader_equals_pydicom(tmp_path, signed, stored):
     """The fast reader of native little-endian pixels gives pydicom's pixel_array exactly."""
     import pydicom
 
-    from mri.io import _native_pixels
+    from mri.io import _Header, _native_pixels
 
     rng = np.random.default_rng(stored + signed)
     lo, hi = (-(2 ** (stored - 1)), 2 ** (stored - 1)) if signed else (0, 2**stored)
@@ -380,5 +428,13 @@ def test_native_pixel_reader_equals_pydicom(tmp_path, signed, stored):
     ds.PixelData = values.astype(np.int16 if signed else np.uint16).tobytes()
     ds.save_as(path)
     ds = pydicom.dcmread(path)
-    np.testing.assert_array_equal(_native_pixels(ds, path), ds.pixel_array)
-    np.testing.assert_array_equal(_native_pixels(ds, path), values)
+    np.testing.assert_array_equal(_native_pixels(_Header(ds), path), ds.pixel_array)
+    np.testing.assert_array_equal(_native_pixels(_Header(ds), path), values)
+    if stored < 16:  # bits above the stored ones (an overlay, or unextended signs) are dropped
+        raw = values.astype(np.int16 if signed else np.uint16).view(np.uint16)
+        noise = rng.integers(0, 2 ** (16 - stored), values.shape).astype(np.uint16) << stored
+        ds.PixelData = ((raw & np.uint16(2**stored - 1)) | noise).tobytes()
+        ds.save_as(path)
+        ds = pydicom.dcmread(path)
+        np.testing.assert_array_equal(_native_pixels(_Header(ds), path), values)
+        np.testing.assert_array_equal(_native_pixels(_Header(ds), path), ds.pixel_array)

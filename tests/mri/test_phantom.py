@@ -16,7 +16,7 @@ import pytest
 from scipy import ndimage
 
 from mri.errors import BoxOutsidePhantomError
-from mri.phantom import fill_holes, find_phantom, largest_component
+from mri.phantom import _median, above, fill_holes, find_phantom, fit_circle, largest_component, outline_points
 from mri.roi import parse_roi, resolve_roi
 from tests.mri.phantoms import noisy_pair, phantom
 
@@ -108,6 +108,89 @@ def test_fill_holes_and_largest_component_match_scipy():
         labels, _ = ndimage.label(blob)
         sizes = ndimage.sum(blob, labels, range(1, labels.max() + 1))
         np.testing.assert_array_equal(largest_component(blob), labels == 1 + int(np.argmax(sizes)))
+
+
+def test_largest_component_with_few_regions_and_ties():
+    # up to 8 regions are sized one at a time; equal regions: the first in raster order wins
+    mask = np.zeros((40, 50), dtype=bool)
+    mask[30:35, 5:10] = mask[5:10, 40:45] = True  # two 5 x 5 squares; (5, 40) comes first
+    mask[20, 20] = True
+    expected = np.zeros_like(mask)
+    expected[5:10, 40:45] = True
+    np.testing.assert_array_equal(largest_component(mask), expected)
+    mask[12:16, 1:3] = mask[36:39, 30:49] = True  # five regions, the last one largest
+    labels, _ = ndimage.label(mask)
+    np.testing.assert_array_equal(largest_component(mask), labels == labels[37, 40])
+
+
+def test_fill_holes_without_labelling_matches_scipy():
+    # masks whose rows (or columns) are single runs skip the labelling: open notches and
+    # bumps are no holes; a ring closed in both directions is refilled by the labelling.
+    r, c = np.ogrid[:80, :90]
+    disc = (r - 40) ** 2 + (c - 45) ** 2 <= 30**2
+    notched = disc & ~((np.abs(c - 45) < 4) & (r < 30))  # open at the top: rows have 2 runs
+    bumps = disc.copy()
+    bumps[5:20, 30:33] = bumps[5:20, 55:58] = True  # two bumps on top: every column one run
+    ring = disc & ((r - 40) ** 2 + (c - 45) ** 2 >= 10**2)
+    u_shape = disc & ~((np.abs(c - 45) < 4) & (r < 50))  # a slot from the top edge
+    for mask in (disc, notched, bumps, ring, u_shape, ring.T, notched.T):
+        np.testing.assert_array_equal(fill_holes(mask), ndimage.binary_fill_holes(mask))
+    assert fill_holes(ring).sum() == disc.sum()
+    runs = [(np.diff(np.pad(m, ((0, 0), (1, 0))).astype(int), axis=1) == 1).sum(axis=1).max()
+            for m in (bumps, bumps.T)]
+    assert runs[0] > 1 and runs[1] == 1  # the case the column test answers
+
+
+def _outline_by_loops(mask):
+    points = []
+    rows = [i for i in range(mask.shape[0]) if mask[i].any()]
+    cols = [j for j in range(mask.shape[1]) if mask[:, j].any()]
+    points += [(i, np.flatnonzero(mask[i])[0] - 0.5) for i in rows]
+    points += [(i, np.flatnonzero(mask[i])[-1] + 0.5) for i in rows]
+    points += [(np.flatnonzero(mask[:, j])[0] - 0.5, j) for j in cols]
+    points += [(np.flatnonzero(mask[:, j])[-1] + 0.5, j) for j in cols]
+    return np.array(points, dtype=float)
+
+
+def test_outline_points_are_the_outer_edges_of_each_row_and_column():
+    rng = np.random.default_rng(4)
+    for _ in range(4):
+        mask = np.zeros((50, 60), dtype=bool)
+        mask[7:41, 12:55] = rng.random((34, 43)) > 0.5  # rows and columns without pixels
+        mask[20, 3] = True
+        np.testing.assert_array_equal(outline_points(mask), _outline_by_loops(mask))
+    assert outline_points(np.zeros((5, 5), dtype=bool)).shape == (0, 2)
+
+
+def test_circle_fit_equals_least_squares_and_median_equals_numpy():
+    rng = np.random.default_rng(5)
+    angle = rng.uniform(0, 2 * np.pi, 300)
+    points = np.column_stack([60.3 + 40 * np.sin(angle), 70.9 + 40 * np.cos(angle)])
+    points += rng.normal(0, 0.3, points.shape)
+    points[:30] += 6.0  # outliers, dropped by the refits
+    (row, col, radius), inliers = fit_circle(points)
+    # the kept points' ordinary least-squares (Kasa) circle, by numpy's lstsq
+    residual = np.abs(np.hypot(points[:, 0] - row, points[:, 1] - col) - radius)
+    kept = points[residual <= max(1.5, 3 * 1.4826 * np.median(residual))]
+    x, y = kept[:, 0] - 60, kept[:, 1] - 70
+    (a, b, k), *_ = np.linalg.lstsq(np.column_stack([x, y, np.ones_like(x)]), x * x + y * y, rcond=None)
+    np.testing.assert_allclose((row, col, radius), (60 + a / 2, 70 + b / 2, np.sqrt(k + (a * a + b * b) / 4)),
+                               rtol=1e-12)
+    assert abs(row - 60.3) < 0.1 and abs(col - 70.9) < 0.1 and 0.85 < inliers < 0.95
+    for n in (1, 2, 7, 10):
+        values = rng.normal(size=n)
+        assert _median(values) == np.median(values)
+
+
+def test_float32_pixels_are_compared_with_the_threshold_in_float64():
+    # 1 + 2**-23 (a float32) is above 1.00000007; float32 would round the threshold up to it
+    pixels = np.array([[1.0, 1.0 + 2.0**-23], [1.0 + 2.0**-22, 0.5]], dtype=np.float32)
+    assert above(pixels, 1.00000007).tolist() == [[False, True], [True, False]]
+    np.testing.assert_array_equal(above(pixels, 1.00000007), pixels.astype(np.float64) > 1.00000007)
+    a, _ = noisy_pair(phantom(centre=CENTRE, shading=("linear", 0.3)), 20.0, seed=11)
+    narrow, wide = find_phantom(a.astype(np.float32)), find_phantom(a.astype(np.float32).astype(np.float64))
+    np.testing.assert_array_equal(narrow[0], wide[0])
+    assert narrow[1] == wide[1]
 
 
 def test_large_slices_are_searched_at_half_resolution_with_the_same_centre():

@@ -109,3 +109,15 @@ def test_empty_or_outside_roi(text, message):
 def test_uniform_image_has_no_phantom():
     with pytest.raises(RoiError, match="uniform"):
         resolve("phantom", np.full((20, 20), 7.0))
+
+
+def test_box_roi_mask_is_made_on_demand_and_clipped_to_the_image():
+    from mri.roi import Roi
+
+    roi = Roi("box", None, (-2, 5, 4, 10), (6, 12))  # reaches above the image and past its right
+    expected = np.zeros((6, 12), dtype=bool)
+    expected[0:2, 5:12] = True
+    np.testing.assert_array_equal(roi.mask, expected)
+    assert roi.n_pixels == 40  # a box's area, as measured on the block
+    with pytest.raises(ValueError, match="a box and the image shape"):
+        Roi("box", None, (0, 0, 2, 2))

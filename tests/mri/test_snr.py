@@ -77,6 +77,24 @@ def test_thesis_noise_counts_only_pairs_inside_the_roi():
         thesis_noise(v, lonely)
 
 
+def test_thesis_and_difference_sums_over_row_blocks_equal_the_whole_image_formulas():
+    # a - b and its neighbour differences are summed a block of rows at a time (several
+    # blocks; one row a block when a row exceeds a block); the results are the formulas'
+    from mri.snr import BLOCK_ELEMENTS, sum_abs_difference
+
+    rng = np.random.default_rng(12)
+    for shape in ((300, 50), (5, BLOCK_ELEMENTS + 7), (1, 3)):
+        a = rng.integers(0, 4000, shape).astype(np.float32)
+        b = (a + rng.normal(0, 20, shape)).astype(np.float32)
+        diff = a.astype(np.float64) - b
+        steps = np.diff(diff, axis=1)
+        expected = np.sqrt(np.sum(steps**2) / (2 * steps.size)) / np.sqrt(2)
+        assert thesis_noise(diff) == pytest.approx(expected, rel=1e-13)
+        roi = Roi("whole", None, (0, 0, *shape), shape)
+        assert measure_roi(a, b, roi, "thesis").noise == pytest.approx(expected, rel=1e-13)
+        assert sum_abs_difference(a, b) == pytest.approx(np.abs(diff).sum(), rel=1e-13)
+
+
 def test_nema_noise_is_sample_std_over_sqrt2():
     v = np.array([[1.0, -1.0, 1.0, -1.0]])
     # sample std with ddof=1 of four +-1 values: sqrt(4 / 3)
@@ -106,7 +124,7 @@ def test_identical_images_are_an_error_not_infinity():
     roi = Roi("whole", np.ones_like(a, dtype=bool))
     for method in ("thesis", "nema"):
         with pytest.raises(MeasurementError, match="zero noise"):
-            measure_roi(a, a - a, roi, method)
+            measure_roi(a, a.copy(), roi, method)
 
 
 # --------------------------------------------------------------------------- Gaussian phantoms
@@ -275,3 +293,31 @@ def test_volume_slice_whose_boxes_leave_the_phantom_is_skipped_with_its_reason()
     assert len(measured) == 9 and result.summary("nema").snr == pytest.approx(np.mean(measured))
     with pytest.raises(MeasurementError, match="no slice of the 2 could be measured"):
         measure_pair(a[[7, 10]], b[[7, 10]], None, {"nema": specs("nema5")})
+
+
+def test_volume_slices_measure_as_single_images():
+    # each slice of a volume measures as it does alone (float32 pixels as loaded, every pair
+    # and single-image method, a skipped slice between)
+    from tests.mri.phantoms import noisy_pair, phantom
+
+    truths = [phantom(signal=s) for s in (400.0, 900.0)] + [np.zeros((256, 256)), phantom(kind="rectangle")]
+    pairs = [noisy_pair(t + 30.0, 12.0, seed=20 + k) for k, t in enumerate(truths)]
+    a = np.stack([p[0] for p in pairs]).astype(np.float32)
+    b = np.stack([p[1] for p in pairs]).astype(np.float32)
+    methods = {"thesis": specs("whole") + specs("nema5"), "nema": specs("nema5") + specs("phantom"),
+               "smoothed": specs("nema5"), "background": specs("nema5")}
+    volume = measure_pair(a, b, (1.0, 1.0), methods)
+    assert [bool(s.skipped) for s in volume.slices] == [False, False, True, False]
+    for k in (0, 1, 3):
+        alone = measure_pair(a[k : k + 1], b[k : k + 1], (1.0, 1.0), methods).slices[0]
+        assert volume.slices[k].methods == alone.methods
+        assert volume.slices[k].sum_abs_difference == alone.sum_abs_difference
+    assert volume.slices[0].methods[0].snr != volume.slices[1].methods[0].snr
+    # float32 pixels measure as their float64 copies (every method works in float64; sums
+    # may be added in another order)
+    wide = measure_pair(a.astype(np.float64), b.astype(np.float64), (1.0, 1.0), methods)
+    for narrow_slice, wide_slice in zip(volume.slices, wide.slices):
+        for narrow, exact in zip(narrow_slice.methods, wide_slice.methods):
+            for x, y in zip(narrow.rois, exact.rois):
+                assert (x.signal, x.noise, x.snr) == pytest.approx((y.signal, y.noise, y.snr), rel=1e-13)
+        assert len(narrow_slice.methods) == len(wide_slice.methods)
