@@ -177,7 +177,10 @@ def _kasa(columns: np.ndarray) -> tuple[float, float, float]:
     x^2 + y^2 of ``columns`` (4 x N), from x^2 + y^2 = a x + b y + k, solved by its 3 x 3
     normal equations (well conditioned when x and y are centred)."""
     gram = columns @ columns.T  # every sum of the normal equations at once
-    a, b, k = np.linalg.solve(gram[:3, :3], gram[:3, 3])
+    try:
+        a, b, k = np.linalg.solve(gram[:3, :3], gram[:3, 3])
+    except np.linalg.LinAlgError:  # collinear points (a refit kept one straight edge): least squares
+        a, b, k = np.linalg.lstsq(gram[:3, :3], gram[:3, 3], rcond=None)[0]
     return a / 2, b / 2, float(np.sqrt(max(k + (a * a + b * b) / 4, 0.0)))
 
 

@@ -163,8 +163,8 @@ BLOCK_ELEMENTS = 8192
 
 
 def _row_blocks(a: np.ndarray, b: np.ndarray | None = None):
-    """Blocks of rows of the 2-D a - b (of a when ``b`` is None) in float64; the blocks of a
-    difference are views of one buffer, valid until the next block."""
+    """Blocks of rows of the 2-D a - b in float64 (of a itself, in its own type, when ``b`` is
+    None); the blocks of a difference are views of one buffer, valid until the next block."""
     rows, cols = a.shape
     block = max(1, BLOCK_ELEMENTS // cols)
     if b is not None:  # a and b are cast into two buffers (a ufunc's casting would add two)

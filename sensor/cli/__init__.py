@@ -177,21 +177,24 @@ def _report_stop(command: str | None, signum: int) -> int:
 def run() -> None:
     """The ``dacm`` console command: :func:`main`, then exit without the interpreter's teardown.
 
-    A command has closed and renamed into place everything it writes before :func:`main`
-    returns; what the teardown would still do is free every module and the compiled
-    kernels' libraries, about 0.3 s after a sweep. The atexit handlers still run
-    (multiprocessing's, weakref finalizers, logging), and stdout and stderr are flushed.
-    An unexpected exception leaves as usual, with its traceback."""
+    A command has closed and renamed into place everything it writes, and stopped its worker
+    pools and threads, before :func:`main` returns; what the teardown would still do is free
+    every module and the compiled kernels' libraries, about 0.3 s after a sweep. The atexit
+    handlers still run (multiprocessing's, weakref finalizers, logging; not threading's,
+    nothing is left for them) and stdout and stderr are flushed: a reader gone from stdout
+    ends the command with status 1, as in :func:`main`, another failed flush with 120, as
+    Python's own exit does. An unexpected exception leaves as usual, with its traceback."""
     import atexit
 
     code = main()
-    with contextlib.suppress(OSError, ValueError):  # a reader that went away, a closed stream
-        sys.stdout.flush()
-        sys.stderr.flush()
-    atexit._run_exitfuncs()  # CPython's own exit handlers, normally run by the teardown
-    with contextlib.suppress(OSError, ValueError):
-        sys.stdout.flush()
-        sys.stderr.flush()
+    atexit._run_exitfuncs()  # CPython's exit handlers, which the teardown would run
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except BrokenPipeError:
+            code = code or 1
+        except (OSError, ValueError):
+            code = code or 120
     os._exit(code)
 
 

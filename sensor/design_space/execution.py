@@ -14,6 +14,7 @@ loses every worker, or its scheduler, for ``cluster_timeout_s`` raises
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import re
 import signal
@@ -335,9 +336,9 @@ def _close_client(client) -> None:
 @dataclass(frozen=True)
 class TaskPool:
     """``size`` parallel workers. ``start(fn, items)`` hands the work out and returns a
-    function that waits for the results (a list, in order), so this process can do other
-    work meanwhile; ``map(fn, items)`` is the two at once. In-process (size 1) the work is
-    done when the results are asked for."""
+    function that waits for the results (a list, in order; asked again, the same list), so
+    this process can do other work meanwhile; ``map(fn, items)`` is the two at once.
+    In-process (size 1) the work is done when the results are first asked for."""
 
     start: Callable[[Callable, Iterable], Callable[[], list]]
     size: int
@@ -367,7 +368,7 @@ def task_pool(workers: int = 0, scheduler: str | None = None):
             size = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
             def start(fn, items):
                 futures = client.map(fn, list(items), pure=False)
-                return lambda: client.gather(futures)
+                return functools.cache(lambda: client.gather(futures))
 
             yield TaskPool(start, size)
         finally:
@@ -375,7 +376,7 @@ def task_pool(workers: int = 0, scheduler: str | None = None):
         return
     n = local_workers(workers)
     if n <= 1:
-        yield TaskPool(lambda fn, items: lambda: [fn(x) for x in items], 1)
+        yield TaskPool(lambda fn, items: functools.cache(lambda: [fn(x) for x in items]), 1)
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
@@ -385,7 +386,7 @@ def task_pool(workers: int = 0, scheduler: str | None = None):
     try:
         def start(fn, items):
             results = pool.map(fn, items)  # every item is submitted now
-            return lambda: list(results)
+            return functools.cache(lambda: list(results))
 
         yield TaskPool(start, n)
     finally:

@@ -602,11 +602,12 @@ def pack_loop(nsub, h, dt, vmax, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, 
 def sensor_read(value, kind, noise, resolution, draw):
     """One reading of a NoisyQuantised (value + noise draw, rounded to the resolution) or an
     Encoder (truncated to whole counts) sensor, the arithmetic of their ``read`` methods."""
+    # np.floor keeps a float (numba's math.floor returns int64, which overflows past 9.2e18)
     if kind == SENSOR_ENCODER:
-        return math.floor(value / resolution) * resolution
+        return np.floor(value / resolution) * resolution
     y = value + noise * draw if noise > 0 else value
     if resolution > 0:
-        y = math.floor(y / resolution + 0.5) * resolution
+        y = np.floor(y / resolution + 0.5) * resolution
     return y
 
 

@@ -32,40 +32,40 @@ class NoisyQuantised:
         self._buffer: list[float] = []
         self._next = 0
 
-    def _draw(self) -> float:
+    def _refill(self) -> None:
+        """A fresh block of the stream when the current one is used up."""
         if self._next >= len(self._buffer):
             self._buffer = self._rng.standard_normal(4096).tolist()
             self._next = 0
+
+    def _draw(self) -> float:
+        self._refill()
         self._next += 1
         return self._buffer[self._next - 1]
+
+    def _advance(self, n: int, out: np.ndarray | None = None) -> None:
+        """Move the stream n draws on, copying them into ``out`` if given."""
+        i = 0
+        while i < n:
+            self._refill()
+            take = min(n - i, len(self._buffer) - self._next)
+            if out is not None:
+                out[i:i + take] = self._buffer[self._next:self._next + take]
+            self._next += take
+            i += take
 
     def upcoming(self, n: int) -> np.ndarray:
         """The standard-normal draws of the next n noisy reads, without consuming them: the same
         stream :meth:`read` would use (the compiled loop reads in bulk, then :meth:`consume`)."""
-        saved = self._rng.bit_generator.state
-        buffer, nxt = self._buffer, self._next
+        saved = self._rng.bit_generator.state, self._buffer, self._next
         out = np.empty(n)
-        i = 0
-        while i < n:
-            if nxt >= len(buffer):
-                buffer = self._rng.standard_normal(4096).tolist()
-                nxt = 0
-            take = min(n - i, len(buffer) - nxt)
-            out[i:i + take] = buffer[nxt:nxt + take]
-            i += take
-            nxt += take
-        self._rng.bit_generator.state = saved
+        self._advance(n, out)
+        self._rng.bit_generator.state, self._buffer, self._next = saved
         return out
 
     def consume(self, n: int) -> None:
         """Advance the noise stream by n draws, as n noisy reads would."""
-        while n > 0:
-            if self._next >= len(self._buffer):
-                self._buffer = self._rng.standard_normal(4096).tolist()
-                self._next = 0
-            take = min(n, len(self._buffer) - self._next)
-            self._next += take
-            n -= take
+        self._advance(n)
 
     def read(self, value: float, t: float) -> float:
         y = value + self.noise * self._draw() if self.noise > 0 else value

@@ -182,6 +182,14 @@ def test_circle_fit_equals_least_squares_and_median_equals_numpy():
         assert _median(values) == np.median(values)
 
 
+def test_circle_fit_of_collinear_points_is_finite_and_fits_nothing():
+    # a straight edge (a refit may keep only one): the normal equations are singular; the fit
+    # falls back to least squares instead of raising, and no point lies on its circle
+    points = np.column_stack([np.full(20, 10.5), np.arange(20) + 0.5])
+    (row, col, radius), inliers = fit_circle(points)
+    assert np.isfinite([row, col, radius]).all() and inliers < 0.5
+
+
 def test_float32_pixels_are_compared_with_the_threshold_in_float64():
     # 1 + 2**-23 (a float32) is above 1.00000007; float32 would round the threshold up to it
     pixels = np.array([[1.0, 1.0 + 2.0**-23], [1.0 + 2.0**-22, 0.5]], dtype=np.float32)

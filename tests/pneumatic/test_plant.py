@@ -165,6 +165,27 @@ def test_compiled_sensor_readings_equal_the_sensor_objects_reads():
     assert np.std(runs[0][0].measured_force_N.values - runs[0][0].environment_force.values) > 0.005
 
 
+def test_compiled_reads_of_a_shared_sensor_and_of_a_fine_resolution_equal_the_python_reads():
+    # one sensor object in both valve slots takes alternate draws of its one stream (so it is
+    # read in Python), and a resolution far below the value (value / resolution > 2^63, where
+    # an integer floor would overflow) keeps the Python arithmetic in the compiled reads
+    class Pot(NoisyQuantised):
+        pass
+
+    cp = Plant(line_1=TwoVolume(2.0), line_2=TwoVolume(2.0)).compile()
+    runs = []
+    for kind in (NoisyQuantised, Pot):
+        shared = kind(200.0, 0.0, 3)
+        fine = Sensors(Encoder(1e-5), kind(0.0, 1e-18, 2), shared, shared, kind(0.0, 1e-15, 5), kind(100.0, 50.0, 6))
+        runs.append(simulate(cp, lambda t, m: 0.2, 0.02, sensors=fine))
+    for var in runs[0].data_vars:
+        assert np.array_equal(runs[0][var].values, runs[1][var].values, equal_nan=True), var
+    valve_1, valve_2 = runs[0].measured_pressure_valve_1_Pa.values, runs[0].measured_pressure_valve_2_Pa.values
+    assert np.all(valve_1 != valve_2)      # two different draws, not one draw twice
+    # the finely resolved chamber reading is the chamber pressure itself (at least the atmosphere)
+    assert np.all(runs[0].measured_pressure_chamber_1_Pa.values > 1e5)
+
+
 def test_non_finite_command_and_runaway_states_stop_with_a_named_error():
     cp = Plant(line_1=TwoVolume(2.0), line_2=TwoVolume(2.0)).compile()
     with pytest.raises(SensorError, match=r"controller returned command nan at t = 0\.002"):
