@@ -71,11 +71,13 @@ STUDY_DURATION_S = 30.0  # shortest study run; long enough to settle by the rule
 SETTLE_PERIODS = 25      # ... and at least this many periods: the SMC's observer error needs ~20 s
                          # at 1 Hz and ~40 s at 0.5 Hz to reach its steady size (measured)
 STEP_AT_S = 3.0          # a step reference jumps here, after the start has settled
-#: Plant substep of the studies (s): finer than the automatic 0.25 ms of distributed lines,
-#: because their verdicts sit near numeric criteria. Against 20 us runs the chapter V rows
-#: at 0.1 ms keep MSE_2 within 3 % (2 m, 1 Hz: 1.19 vs 1.23 N^2; at 0.14 ms, the automatic
-#: step on 2 m lines, 1.32, enough to move the MSE_2 spread across Table 4's 1.73).
-STUDY_SUBSTEP_S = 1.0e-4
+#: Plant substep of an experiment (s; :class:`Setup`: `dacm loop`, its studies and the
+#: examples): finer than simulate's automatic 0.25 ms for distributed lines, because the
+#: studies' verdicts sit near numeric criteria and a single run should print their numbers.
+#: Against 20 us runs the chapter V rows at 0.1 ms keep MSE_2 within 3 % (2 m, 1 Hz: 1.19 vs
+#: 1.23 N^2; at 0.14 ms, the automatic step on 2 m lines, 1.32, enough to move the MSE_2
+#: spread across Table 4's 1.73).
+LOOP_SUBSTEP_S = 1.0e-4
 SETTLE_CYCLES = 5       # cycles per block of the settling rule
 SETTLE_CHANGE = 0.05
 SETTLE_FLOOR = {"N2": 1e-3, "kPa2": 0.05}   # ~ the sensors' noise: (0.02 N)^2 x 2.5, (0.2 kPa)^2 + 25 %
@@ -112,7 +114,7 @@ class Setup:
     gains: tuple = ()
     force_sensor: object = None
     seed: int = 0
-    substep_s: float | None = None   # plant substep (s); None: the plant's automatic choice
+    substep_s: float | None = LOOP_SUBSTEP_S   # plant substep (s); None: the plant's automatic choice
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -388,10 +390,9 @@ OBSERVER_EXPERIMENTS = (("pi", "sine:1Hz", "Figure 16"), ("pi", "sine:2Hz", "Fig
 def _observer_setup(ctrl: str, ref: str, kind: str, duration_s: float | None, segments: int, **kw) -> Setup:
     duration_s = settling_duration_s(ref) if duration_s is None else duration_s
     if ctrl != "smc":
-        return Setup(controller=ctrl, observer=kind, reference=ref, duration_s=duration_s, segments=segments,
-                     substep_s=STUDY_SUBSTEP_S, **kw)
+        return Setup(controller=ctrl, observer=kind, reference=ref, duration_s=duration_s, segments=segments, **kw)
     s = Setup(controller="smc", observer=kind, reference=ref, duration_s=duration_s, segments=segments,
-              valve="enfield-lh05", substep_s=STUDY_SUBSTEP_S, **kw)
+              valve="enfield-lh05", **kw)
     return replace(s, gains=(("impedance", _impedance_for(s)),))
 
 
@@ -468,7 +469,7 @@ def controller_study(duration_s: float | None = None, amplitude_N: float = 24.0,
     plan = [((length, ref, key), Setup(controller=ctrl, observer="standard", reference=ref, amplitude_N=amplitude_N,
                                        line_length_m=length, valve="enfield-lh05",
                                        duration_s=settling_duration_s(ref) if duration_s is None else duration_s,
-                                       segments=segments, substep_s=STUDY_SUBSTEP_S))
+                                       segments=segments))
             for length in lengths for ref in references for key, ctrl in CH5_CONTROLLERS.items()]
     done = _run_plan(plan, progress)
     rows = []
@@ -512,7 +513,7 @@ def sensor_study(duration_s: float = STUDY_DURATION_S, environment_N_m: float = 
         for label, fs in (("DACM " + name, sensor), ("load cell (0.02 N noise)", None)):
             s = Setup(controller="pi", observer="force", reference=f"sine:{frequency_Hz:g}Hz", amplitude_N=amp,
                       offset_N=off, duration_s=duration_s, segments=segments, environment=spring_contact(k, 0.025),
-                      force_sensor=fs, substep_s=STUDY_SUBSTEP_S)
+                      force_sensor=fs)
             plan.append(((name, label), s))
             info[(name, label)] = dict(sensor=name, reading=label, range_N=sensor.range_N,
                                        hysteresis_pct=sensor.sheet.hysteresis_pct,

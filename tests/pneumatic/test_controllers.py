@@ -30,7 +30,7 @@ from sensor.pneumatic.observer import (
     volumes,
 )
 from sensor.pneumatic.plant import Plant
-from sensor.pneumatic.studies import Setup, build_plant, metrics, run
+from sensor.pneumatic.studies import LOOP_SUBSTEP_S, Setup, build_plant, metrics, run
 from sensor.pneumatic.valve import ENFIELD_LH05, FESTO_MPYE
 
 
@@ -312,12 +312,16 @@ def test_plant_and_estimators_start_from_the_atmosphere():
     assert abs(float(first.environment_force)) < 1e-9
 
 
-@pytest.mark.parametrize("substep_s", [None, 5e-5])
+@pytest.mark.parametrize("substep_s", [None, 5e-5, "default"])
 def test_setup_substep_reaches_the_plant(substep_s):
-    # None: the plant's automatic substep (0.25 ms cap with a distributed line); a value is used as given
-    s = Setup(controller="pi", line_length_m=2.0, segments=4, duration_s=0.01, substep_s=substep_s)
+    # default: LOOP_SUBSTEP_S; None: the plant's automatic substep (0.25 ms cap with a
+    # distributed line, 0.2 ms here); a value is used as given
+    kw = {} if substep_s == "default" else {"substep_s": substep_s}
+    s = Setup(controller="pi", line_length_m=2.0, segments=4, duration_s=0.01, **kw)
     h = run(s).attrs["substep_s"]
-    assert h == pytest.approx(5e-5 if substep_s else build_plant(s).compile().substeps(1e-3)[1], rel=1e-12)
+    automatic = build_plant(s).compile().substeps(1e-3)[1]
+    assert automatic > 1.5e-4
+    assert h == pytest.approx({None: automatic, 5e-5: 5e-5, "default": LOOP_SUBSTEP_S}[substep_s], rel=1e-12)
 
 
 @pytest.mark.parametrize("bad", [0.0, -1e-4, float("nan"), float("inf")])
