@@ -320,7 +320,7 @@ def solve_batch(models: list[BeamModel], target_output_mm: float | None = None,
     """Solve many models of one connectivity together.
 
     Returns (results, errors): per model a :class:`SolveResult` or None, and None or the
-    :class:`SolverError` that stopped it.
+    :class:`SolverError` that stopped it (two empty lists for no model).
     """
     if target_output_mm is None and target_force_N is None:
         target_output_mm = 1.0
@@ -330,6 +330,8 @@ def solve_batch(models: list[BeamModel], target_output_mm: float | None = None,
     if not (np.isfinite(target) and target > 0):
         name = "target_output_mm" if target_force_N is None else "target_force_N"
         raise SensorInputError(f"{name} = {target!r}: must be a positive finite number")
+    if not models:
+        return [], []
     topo = prepare(models[0])
     for m in models[1:]:
         if m.member_nodes.shape != models[0].member_nodes.shape or not np.array_equal(

@@ -179,6 +179,7 @@ def test_batch_equals_one_by_one():
         r1 = solve(m)
         assert rb.k_out_N_per_mm == pytest.approx(r1.k_out_N_per_mm, rel=1e-9)
         assert rb.amplification == pytest.approx(r1.amplification, rel=1e-9)
+    assert solve_batch([]) == ([], [])   # a sweep row without a feasible cell
 
 
 def test_force_target_reaches_the_force():
