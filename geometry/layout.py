@@ -94,21 +94,24 @@ def bar(a: np.ndarray, b: np.ndarray, width: float, extend_a: float = 0.0,
          extend_b: float = 0.0) -> np.ndarray:
     """Rectangle of ``width`` around segment a-b, lengthened past a and b (into the bodies
     the segment is rooted in, so the union has no notch)."""
-    # scalar arithmetic: a profile has about 30 bars and a sweep checks thousands of profiles
-    dx, dy = float(b[0] - a[0]), float(b[1] - a[1])
+    # Python-float arithmetic: a profile has about 30 bars and a sweep checks thousands of profiles
+    (a0, a1), (b0, b1) = (float(a[0]), float(a[1])), (float(b[0]), float(b[1]))
+    dx, dy = b0 - a0, b1 - a1
     length = math.hypot(dx, dy)
     ux, uy = dx / length, dy / length
     nx, ny = -uy * width / 2, ux * width / 2
-    ax, ay = a[0] - ux * extend_a, a[1] - uy * extend_a
-    bx, by = b[0] + ux * extend_b, b[1] + uy * extend_b
+    ax, ay = a0 - ux * extend_a, a1 - uy * extend_a
+    bx, by = b0 + ux * extend_b, b1 + uy * extend_b
     return np.array([[ax - nx, ay - ny], [bx - nx, by - ny], [bx + nx, by + ny], [ax + nx, ay + ny]])
 
 
 def member_chain(a: np.ndarray, b: np.ndarray, hinge_length: float) -> np.ndarray:
     """Nodes of a hinge-link-hinge member from a to b: (4, 2) = a, a + l_h u, b - l_h u, b."""
-    d = b - a
-    u = d / math.hypot(d[0], d[1])
-    return np.array([a, a + u * hinge_length, b - u * hinge_length, b])
+    (a0, a1), (b0, b1) = (float(a[0]), float(a[1])), (float(b[0]), float(b[1]))
+    length = math.hypot(b0 - a0, b1 - a1)
+    ux, uy = (b0 - a0) / length, (b1 - a1) / length
+    return np.array([(a0, a1), (a0 + ux * hinge_length, a1 + uy * hinge_length),
+                     (b0 - ux * hinge_length, b1 - uy * hinge_length), (b0, b1)])
 
 
 def side_members(lay: Layout) -> list[tuple[str, np.ndarray, int, int]]:
