@@ -90,14 +90,12 @@ def figure_names(monte_carlo: bool) -> list[str]:
     return ["figure49", "hysteresis-vs-range", *RATIO_FIGURES, *(["robust_quality_ratio"] if monte_carlo else [])]
 
 
-def start_figures(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path, pool=None):
+def start_figures(ds: xr.Dataset, fronts: dict[str, pd.DataFrame], out_dir: Path, pool):
     """Every figure of a sweep (PNG and SVG), handed out to ``pool`` (a
     :class:`~sensor.design_space.execution.TaskPool`, one figure a task): returns the
-    function that waits for the written paths (without a pool, it draws them)."""
+    function that waits for the written paths."""
     monte_carlo = any(k.startswith("mc_") for k in ds.data_vars)
     jobs = [(name, ds, fronts, out_dir) for name in figure_names(monte_carlo)]
-    if pool is None:
-        return lambda: [path for job in jobs for path in draw_figure(job)]
     drawn = pool.start(draw_figure, jobs)
     return lambda: [path for paths in drawn() for path in paths]
 

@@ -40,7 +40,8 @@ def resolutions_N(curves, fiber_clearance_mm, optics: OpticsSetup = OpticsSetup(
     for a failed solve: NaN), ``fiber_clearance_mm`` one clearance each. Curves with the same
     travel stations (a sweep row's, under displacement control) share one interpolant."""
     out = np.full(len(curves), np.nan)
-    groups: dict[tuple, list[int]] = {}
+    forces: dict[int, np.ndarray] = {}
+    groups: dict[tuple, list[int]] = {}   # (travel stations, clearance) -> curves
     for n, curve in enumerate(curves):
         if curve is None:
             continue
@@ -48,10 +49,11 @@ def resolutions_N(curves, fiber_clearance_mm, optics: OpticsSetup = OpticsSetup(
         if f.size < 2 or f.shape != x.shape or not (np.isfinite(f).all() and np.isfinite(x).all()) \
                 or np.any(np.diff(x) <= 0):
             continue
+        forces[n] = f
         groups.setdefault((x.tobytes(), float(fiber_clearance_mm[n])), []).append(n)
-    for (_, clearance), members in groups.items():
-        x = np.asarray(curves[members[0]][1], dtype=float)
-        f = np.column_stack([np.asarray(curves[n][0], dtype=float) for n in members])
+    for (stations, clearance), members in groups.items():
+        x = np.frombuffer(stations)
+        f = np.column_stack([forces[n] for n in members])
         x0, x1 = round(float(x[0]), 9), round(float(x[-1]), 9)  # one cache entry per travel
         dF_dx = PchipInterpolator(x, f, axis=0)(np.linspace(x0, x1, STATIONS), 1)   # (STATIONS, k)
         noise = _travel_noise_mm(clearance, x0, x1, optics, readout)

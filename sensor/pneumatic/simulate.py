@@ -94,7 +94,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
         K.read_sensors(0, *raw, sens, noise, log)
         m = tuple(float(v) for v in log[0, K.L_MEAS:])
     meas = log[:, K.L_MEAS:]
-    kpa, kv, ka, kf, kv1, kv2, kc1, kc2 = MEASUREMENT_KEYS
+    kz, kv, ka, kf, kv1, kv2, kc1, kc2 = MEASUREMENT_KEYS
     period = K.control_period
     k = 0
     try:
@@ -110,7 +110,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
                 progress(k, nsteps)
             if k == nsteps:
                 break
-            u = float(controller(t, {kpa: m[0], kv: m[1], ka: m[2], kf: m[3], kv1: m[4], kv2: m[5], kc1: m[6],
+            u = float(controller(t, {kz: m[0], kv: m[1], ka: m[2], kf: m[3], kv1: m[4], kv2: m[5], kc1: m[6],
                                      kc2: m[7]}))
             if not math.isfinite(u):
                 raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
