@@ -1,7 +1,7 @@
 """SNR of a real repeated MR acquisition (Siemens Aera 1.5 T, hazen test data, Apache-2.0).
 
 Run from the repository root:  .venv/bin/python examples/mri_snr.py [figure.png]
-The same numbers come from:    dacm snr ../shared/data/mri/siemens_aera_pair/tra_250_2meas_{1,2}.IMA
+The same numbers come from:    dacm snr tests/data/mri/siemens_aera_pair/tra_250_2meas_{1,2}.IMA
 """
 
 import sys
@@ -14,7 +14,7 @@ from mri.pair import check_pair
 from mri.roi import parse_roi, resolve_roi
 from mri.snr import measure_pair
 
-PAIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "mri" / "siemens_aera_pair"
+PAIR = Path(__file__).resolve().parents[1] / "tests" / "data" / "mri" / "siemens_aera_pair"
 
 a = load_image(PAIR / "tra_250_2meas_1.IMA")
 b = load_image(PAIR / "tra_250_2meas_2.IMA")

@@ -23,7 +23,7 @@ from mri.pair import check_pair
 from mri.roi import parse_roi
 from mri.snr import DEFAULT_ROIS, measure_pair
 
-REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "mri" / "siemens_aera_pair"
+REAL = Path(__file__).resolve().parents[1] / "data" / "mri" / "siemens_aera_pair"
 SPECS = {method: (parse_roi(DEFAULT_ROIS[method]),) for method in ("thesis", "nema")}
 
 

@@ -25,7 +25,7 @@ from tests.mri.phantoms import noisy_pair, phantom
 #: For white noise, x - boxcar_K(x) has variance sigma^2 (1 - 1/K^2): 80/81 at K = 9.
 SMOOTHED_FACTOR = np.sqrt(1 - 1 / 81)
 
-REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "mri" / "siemens_aera_pair"
+REAL = Path(__file__).resolve().parents[1] / "data" / "mri" / "siemens_aera_pair"
 
 
 def specs(*texts):

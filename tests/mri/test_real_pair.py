@@ -1,7 +1,7 @@
 """Regression on real scanner data: the Siemens Aera 1.5 T repeated-acquisition pair.
 
-The data (hazen's test data, Apache-2.0) lie beside the checkout in ../shared/data/mri/; CI
-provides them, so a missing file fails the test instead of skipping it.
+The data (hazen's test data, Apache-2.0, licence in tests/data/mri/siemens_aera_pair/) ship
+with the project, so a missing file fails the test instead of skipping it.
 
 Independent check: hazen's test suite pins the MATLAB result of McCann et al.'s NEMA
 subtraction method (five 20 x 20 px boxes, SNR averaged over them) for this very pair:
@@ -26,7 +26,7 @@ from mri.roi import parse_roi
 from mri.snr import measure_pair
 from sensor.cli import main
 
-PAIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "mri" / "siemens_aera_pair"
+PAIR = Path(__file__).resolve().parents[1] / "data" / "mri" / "siemens_aera_pair"
 A, B = PAIR / "tra_250_2meas_1.IMA", PAIR / "tra_250_2meas_2.IMA"
 
 MATLAB_RAW_SNR = 2130.93 / 9.761711312090041  # = 218.29, hazen tests/test_snr.py

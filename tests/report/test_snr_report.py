@@ -13,7 +13,7 @@ import pytest
 from sensor.cli import main
 from tests.report.browser import open_in_browser, start_tags
 
-PAIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "mri" / "siemens_aera_pair"
+PAIR = Path(__file__).resolve().parents[1] / "data" / "mri" / "siemens_aera_pair"
 A, B = PAIR / "tra_250_2meas_1.IMA", PAIR / "tra_250_2meas_2.IMA"
 
 
