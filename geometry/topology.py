@@ -31,6 +31,7 @@ travel is measured along it.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import reprlib
@@ -167,7 +168,8 @@ def _fill_mm(s: np.ndarray, side: tuple) -> np.ndarray:
     return np.minimum(np.where(s < n, r - np.sqrt(r * r - gap * gap), 0.0), FILLET_SPREAD_SLOPE * np.clip(n - s, 0.0, None))
 
 
-def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray, tuple, float]:
+@functools.lru_cache(maxsize=4096)
+def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray, tuple, float, float]:
     """The thickness profile of a hinge member of the cut part (mm).
 
     The neck of thickness t and drawn length l_h runs between two faces; at each face the
@@ -178,6 +180,7 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
     :data:`ROOT_DEPTH_PER_THICKNESS` x that width further, into the body, where the elastic
     root is taken as clamped.
 
+    Cached (a sweep's cells share their hinges); the stations are read-only.
     Returns (stations (k, 2) of s and t, (s0, s1) where the uniform neck starts and ends,
     member length, how far behind the start face's axis crossing the member starts), all
     in mm from the member's start: ``k`` = 2 + 4 :data:`FILLET_STATIONS` for every hinge, so the profiles
@@ -203,7 +206,8 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
                           np.concatenate([[t[0]], t, [t[-1]]])])
     shift = da - face0  # the member starts this far behind the start face's axis crossing
     st[:, 0] += shift
-    return st, (neck0 + shift, neck1 + shift), float(st[-1, 0]), shift
+    st.flags.writeable = False  # cached: a sweep's cells share their hinges' profiles
+    return st, (float(neck0 + shift), float(neck1 + shift)), float(st[-1, 0]), float(shift)
 
 
 def root_radius_mm(design: Design) -> float:

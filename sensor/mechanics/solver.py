@@ -35,6 +35,7 @@ zeros of the banded stiffness matrix). Units: mm, N, MPa, mJ (N mm).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -291,17 +292,18 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
 
 def _member_flexibility(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     """Tip flexibility (B, e, 3, 3) of the compliant members: uniform ones in closed form,
-    those with a thickness profile (hinges with root fillets) by :func:`profile_flexibility`.
-    The profiles of one member stack across the batch (same number of stations); their
-    stations are scaled to the member's undeformed length."""
+    those with a thickness profile (hinges with root fillets) by :func:`profile_flexibility`,
+    all of a batch in one call. The profiles of one member stack across the batch (same
+    number of stations); their stations are scaled to the member's undeformed length."""
     C = cantilever_flexibility(L0, t, b, E, G)
     first = models[0].profile_mm
-    for j, k in enumerate(topo.flex):
-        if first[k] is None:
-            continue
-        st = np.stack([m.profile_mm[k] for m in models])
-        st = st * np.array([1.0, 0.0]) * (L0[:, j] / st[:, -1, 0])[:, None, None] + st * np.array([0.0, 1.0])
-        C[:, j] = profile_flexibility(st, b[:, j], E[:, 0], G[:, 0])
+    cols = [j for j, k in enumerate(topo.flex) if first[k] is not None]
+    if not cols:
+        return C
+    members = topo.flex[cols]
+    st = np.array([[m.profile_mm[k] for k in members] for m in models])          # (B, h, k, 2)
+    st[..., 0] *= (L0[:, cols] / st[..., -1, 0])[..., None]
+    C[:, cols] = profile_flexibility(st, b[:, cols], E, G)
     return C
 
 
@@ -342,6 +344,20 @@ class SolveResult:
     def sensitivity_mm_per_N(self) -> float:
         """Output travel per input force, mm/N (the inverse of k_out)."""
         return 1.0 / self.k_out_N_per_mm
+
+
+def scaled_result(r: SolveResult, factor: float) -> SolveResult:
+    """A linear-limit result scaled by ``factor``: forces, travels, member forces and hinge
+    rotations times it, strain energies and work times its square; A and k_out are the
+    linear limit's. ``deformed_nodes`` and ``node_rotation_rad`` stay the small-travel
+    state's (the solved shape, not an extrapolated one)."""
+    return dataclasses.replace(
+        r, input_force_N=r.input_force_N * factor, input_travel_mm=r.input_travel_mm * factor,
+        output_travel_mm=r.output_travel_mm * factor, force_N=r.force_N * factor,
+        input_mm=r.input_mm * factor, output_mm=r.output_mm * factor,
+        strain_energy_mJ=r.strain_energy_mJ * factor**2, work_mJ=r.work_mJ * factor**2,
+        member_forces=r.member_forces * factor, member_strain_energy_mJ=r.member_strain_energy_mJ * factor**2,
+        hinge_rotation_deg={k: v * factor for k, v in r.hinge_rotation_deg.items()})
 
 
 @dataclass(frozen=True)

@@ -80,6 +80,7 @@ class Table6Row:
     sensitivity_measured: float
     strain_energy_mJ: float
     strain_energy_thesis: float
+    strain_energy_measured: float
     hysteresis_predicted: float
     hysteresis_measured: float
     quality_predicted: float
@@ -96,6 +97,6 @@ def table6_comparison(law: StrainEnergyLaw = DEFAULT_LAW) -> list[Table6Row]:
         q = qualify(r, law)
         rows.append(Table6Row(name, q.amplification, thesis_amplification(name),
                               q.sensitivity_mm_per_N, t.sensitivity_model_mm_per_N, t.sensitivity_mm_per_N,
-                              q.strain_energy_mJ, t.strain_energy_model_mJ, q.hysteresis,
+                              q.strain_energy_mJ, t.strain_energy_model_mJ, t.strain_energy_mJ, q.hysteresis,
                               t.hysteresis, q.quality_mm_per_N, t.quality))
     return rows
