@@ -173,6 +173,13 @@ def validate(d: Design) -> None:
         raise ParameterError(f"name = {d.name!r}: must be {STEM_RULE}")
 
 
+def cut_note(kerf_mm: float | None) -> str:
+    """What a prediction at this kerf (mm) is of: the part as cut (DESIGN section 16) or the drawing."""
+    if kerf_mm is None:
+        return "beam model as given"
+    return f"as cut, kerf {kerf_mm:g} mm" if kerf_mm > 0 else "as drawn (kerf 0: sharp hinge roots)"
+
+
 def make_design(phi1_deg: float = 22.0, phi2_deg: float | None = 17.2, hinges: str = "05-03",
                 **overrides) -> Design:
     """A design from angles and a named hinge set; other fields by keyword."""

@@ -53,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from sensor.errors import UsageError
     from sensor.mechanics.hysteresis import DEFAULT_LAW
     from sensor.mechanics.qualifiers import qualify
+    from geometry.params import cut_note
     from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
     from sensor.mechanics.solver import SolverOptions, scaled_result, solve
     from sensor.mechanics.stress import hinge_stresses, stress_check
@@ -123,9 +124,7 @@ def run(args: argparse.Namespace) -> int:
             ("peak hinge stress", ", ".join(f"{k}: {v:.1f}" for k, v in hinge_stress.items()) + " MPa")]
     if stress is not None:
         rows.append(("stress rule", stress.message + f" (utilisation {stress.utilisation:.2f})"))
-    cut = "" if design is None else (f" (as cut, kerf {design.kerf_mm:g} mm)" if design.kerf_mm > 0 or design.root_radius_mm > 0
-                                      else " (as drawn: kerf 0, sharp roots)")
-    print(f"{name}{cut}" + ("  linear limit" if args.linear else ""))
+    print(f"{name} ({cut_note(None if design is None else design.kerf_mm)})" + ("  linear limit" if args.linear else ""))
     for k, v in rows:
         print(f"  {k:<26} {v}")
     return 0
