@@ -12,7 +12,7 @@ from mri.figure import PairPanel, pair_figure
 from mri.io import load_image
 from mri.pair import check_pair
 from mri.roi import parse_roi, resolve_roi
-from mri.snr import measure_pair
+from mri.snr import measure_arrays
 
 PAIR = Path(__file__).resolve().parents[1] / "tests" / "data" / "mri" / "siemens_aera_pair"
 
@@ -24,7 +24,7 @@ print(f"{a.scanner}, {a.shape[1]} x {a.shape[2]} px of {a.pixel_spacing_mm[0]:.3
 
 # The thesis' method over the whole image, NEMA over five boxes and over the eroded phantom.
 specs = {"thesis": (parse_roi("whole"), parse_roi("phantom")), "nema": (parse_roi("nema5"), parse_roi("phantom"))}
-result = measure_pair(a.pixels, b.pixels, a.pixel_spacing_mm, specs)
+result = measure_arrays(a.pixels, b.pixels, a.pixel_spacing_mm, specs)
 for method in result.slices[0].methods:
     for roi in method.rois:
         print(f"{method.method:6} {roi.roi:36} signal {roi.signal:8.1f}  noise {roi.noise:6.2f}  SNR {roi.snr:7.1f}")

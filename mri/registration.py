@@ -42,11 +42,13 @@ def fit_difference(a: np.ndarray, b: np.ndarray, phantom: np.ndarray) -> Differe
     a, b = a.astype(np.float64), b.astype(np.float64)
     mean = (a + b) / 2
     grad_r, grad_c = np.gradient(mean)
-    design = np.column_stack([-mean.ravel(), grad_r.ravel(), grad_c.ravel(), np.ones(a.size)])
+    design = np.stack([-mean.ravel(), grad_r.ravel(), grad_c.ravel(), np.ones(a.size)])
     diff = (a - b).ravel()
-    coef = np.linalg.lstsq(design, diff, rcond=None)[0]
+    # least squares by the 4 x 4 normal equations (a tenth of the time of an SVD of the
+    # N x 4 design; for four columns float64 absorbs the squared condition number)
+    coef = np.linalg.lstsq(design @ design.T, design @ diff, rcond=None)[0]
     gain, dr, dc = coef[:3]
-    residual = (diff - design @ coef).reshape(a.shape)
+    residual = (diff - coef @ design).reshape(a.shape)
     edge = ndimage.binary_dilation(phantom, iterations=2) & ~ndimage.binary_erosion(phantom, iterations=2)
     inner = ndimage.binary_erosion(phantom, iterations=10)
     d = diff.reshape(a.shape)

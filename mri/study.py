@@ -23,7 +23,7 @@ from mri.snr import (
     SINGLE_METHODS,
     SMOOTHING_KERNEL_PX,
     PairResult,
-    measure_pair,
+    measure_arrays,
 )
 
 
@@ -88,7 +88,7 @@ def _specs(options: SnrOptions, methods, n_slices: int) -> tuple[dict, tuple]:
     return by_method, background
 
 
-def measure_files(name: str, path_a, path_b, options: SnrOptions) -> MeasuredPair:
+def measure_pair(name: str, path_a, path_b, options: SnrOptions) -> MeasuredPair:
     """Load, check and measure image ``path_a`` alone (``path_b`` None) or the pair."""
     a = load_image(path_a)
     b = None if path_b is None else load_image(path_b)
@@ -97,7 +97,7 @@ def measure_files(name: str, path_a, path_b, options: SnrOptions) -> MeasuredPai
     specs, background = _specs(options, methods, a.n_slices)
     inputs, missing = normalisation_inputs(a, options.normalisation)
     factor = None if inputs is None else normalisation_factor(inputs)
-    result = measure_pair(a.pixels, None if b is None else b.pixels, a.pixel_spacing_mm, specs,
+    result = measure_arrays(a.pixels, None if b is None else b.pixels, a.pixel_spacing_mm, specs,
                           background, options.kernel_px, factor)
     low = [s for s in result.summaries if s.snr < RICIAN_BIAS_SNR]
     if low:

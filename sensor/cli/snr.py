@@ -109,10 +109,10 @@ def _check_mode(args) -> None:
 def _measure(name, path_a, path_b, args, options):
     """Measure; boxes refused on a single slice are drawn in --figure before the error."""
     from mri.errors import BoxOutsidePhantomError
-    from mri.study import figure_panel, measure_files
+    from mri.study import figure_panel, measure_pair
 
     try:
-        return measure_files(name, path_a, path_b, options)
+        return measure_pair(name, path_a, path_b, options)
     except BoxOutsidePhantomError as exc:
         if not args.figure:
             raise

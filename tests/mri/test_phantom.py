@@ -72,14 +72,35 @@ def test_nema5_boxes_are_measured_on_a_dark_centre_and_an_insert():
     assert [r.n_pixels for r in rois] == [400] * 5
 
 
-def test_a_box_that_truly_leaves_the_phantom_is_refused_with_the_boxes_to_draw():
+def test_a_given_layout_that_leaves_the_phantom_is_refused_with_the_boxes_to_draw():
     a, _ = noisy_pair(phantom(centre=CENTRE, radius=45.0), 20.0, seed=4)
     with pytest.raises(BoxOutsidePhantomError, match="upper-left, lower-left, upper-right, "
                        "lower-right box") as info:
-        resolve_roi(parse_roi("nema5"), a, None)
+        resolve_roi(parse_roi("nema5:20:40"), a, None)
     assert len(info.value.rois) == 5 and info.value.fit.shape == "circle"
     # the same boxes fit once they are brought in
     assert len(resolve_roi(parse_roi("nema5:20:20"), a, None)) == 5
+
+
+def test_the_default_layout_shrinks_to_the_largest_that_fits_and_says_so():
+    # radius 45: 20 px boxes fit at offset o when (o + 10) sqrt 2 <= ~45, i.e. o <= 21
+    a, _ = noisy_pair(phantom(centre=CENTRE, radius=45.0), 20.0, seed=4)
+    rois = resolve_roi(parse_roi("nema5"), a, None)
+    note = rois[0].note
+    assert note.code == "boxes_shrunk" and note.values["size_px"] == 20
+    assert 18 <= note.values["offset_px"] <= 22, note
+    assert all(r.box[2:] == (20, 20) for r in rois) and all(r.note is None for r in rois[1:])
+    # every box inside the disc (corner distance from the true centre below the radius)
+    for r in rois:
+        row, col, h, w = r.box
+        corners = [(row - 0.5 + dr, col - 0.5 + dc) for dr in (0, h) for dc in (0, w)]
+        assert max(np.hypot(y - CENTRE[0], x - CENTRE[1]) for y, x in corners) <= 45.0 + 0.5
+
+
+def test_a_phantom_too_small_for_five_px_boxes_is_refused():
+    a, _ = noisy_pair(phantom(centre=CENTRE, radius=9.0), 20.0, seed=4)
+    with pytest.raises(BoxOutsidePhantomError, match="even 5 x 5 px boxes do not fit"):
+        resolve_roi(parse_roi("nema5"), a, None)
 
 
 def test_a_box_over_a_notch_is_refused():
