@@ -363,8 +363,8 @@ def _acquired(header: _Header) -> str | None:
         if len(date) < 8 or not date[:8].isdigit() or date[:4] == "0001":
             return None
         out = f"{date[:4]}-{date[4:6]}-{date[6:8]}"
-        if len(time) >= 4 and time[:4].isdigit():
-            out += f"T{time[:2]}:{time[2:4]}" + (f":{time[4:]}" if len(time) > 4 else "")
+        if len(time) >= 4 and time[:4].isdigit():  # hhmm[ss[.ffffff]], kept to milliseconds
+            out += f"T{time[:2]}:{time[2:4]}" + (f":{time[4:10]}" if len(time) > 4 else "")
         return out
 
     for keyword in ("FrameAcquisitionDateTime", "AcquisitionDateTime"):

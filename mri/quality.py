@@ -21,6 +21,11 @@ and the ``values`` it was decided on. The checks and their limits:
 * ``header_differs``, ``rician_bias``, ``slices_skipped``, ``normalisation_missing``: the
   pair's descriptive headers differ, the SNR is low enough for magnitude noise to bias it,
   slices of a volume could not be measured, the header lacks a normalisation input.
+
+The limits were set on hazen's 14-pair corpus (tests/data/mri): its pairs read shifts up to
+0.15 px, gains up to 0.5 %, box SNRs up to x1.45 from the median (the Aera's centre box,
+under a head array's darker centre), inlier fractions down to 0.67 (the Philips phantom's
+distorted rectangle); a rotated rectangle (the Vida pair, 0.46) is flagged.
 """
 
 from __future__ import annotations
@@ -30,8 +35,8 @@ from dataclasses import dataclass, field
 #: Limits of the checks (see the module).
 MAX_SHIFT_PX = 0.3
 MAX_GAIN_PERCENT = 2.0
-OUTLIER_FACTOR = 1.3
-MIN_INLIER_FRACTION = 0.7
+OUTLIER_FACTOR = 1.5
+MIN_INLIER_FRACTION = 0.6
 MAX_CENTRE_PX = 2.0
 
 CODES = ("misregistration", "gain_change", "outlier_box", "low_inlier_fraction",

@@ -112,7 +112,7 @@ def _measure(name, path_a, path_b, args, options):
     from mri.study import figure_panel, measure_pair
 
     try:
-        return measure_pair(name, path_a, path_b, options)
+        return measure_pair(path_a, path_b, options, name)
     except BoxOutsidePhantomError as exc:
         if not args.figure:
             raise
@@ -156,11 +156,11 @@ def run(args) -> int:
 
     path_b = args.images[1] if len(args.images) == 2 else None
     pair = _measure("pair" if path_b else "image", args.images[0], path_b, args, options)
-    for warning in pair.warnings:
-        print(f"dacm snr: warning: {warning}", file=sys.stderr)
     panels = [figure_panel(pair.name, pair.a, pair.b, pair.specs, pair.background_specs,
                            args.figure_slice)] if args.figure or args.report else []
     _write_outputs(args, [pair], panels)
+    for warning in pair.warnings:  # after the outputs: an error stays the only line
+        print(f"dacm snr: warning: {warning}", file=sys.stderr)
     if args.json:
         print(json.dumps(pair_dict(pair), indent=2))
     else:

@@ -98,17 +98,23 @@ def test_the_default_layout_shrinks_to_the_largest_that_fits_and_says_so():
 
 
 def test_a_phantom_too_small_for_five_px_boxes_is_refused():
-    a, _ = noisy_pair(phantom(centre=CENTRE, radius=9.0), 20.0, seed=4)
+    # radius 9 px: five 5 px boxes (centre and diagonals) need about 2.5 x 5 sqrt 2 = 17.7 px
+    a, _ = noisy_pair(phantom(shape=(64, 64), centre=(31.3, 32.6), radius=9.0), 20.0, seed=4)
     with pytest.raises(BoxOutsidePhantomError, match="even 5 x 5 px boxes do not fit"):
         resolve_roi(parse_roi("nema5"), a, None)
 
 
-def test_a_box_over_a_notch_is_refused():
+def test_a_box_over_a_notch_is_refused_or_brought_in():
     # A notch cut 30 px into the upper right: the upper-right box (rows 72-91, cols 164-183)
-    # falls into the air of the notch.
+    # falls into the air of the notch. The given layout is refused; the default one moves
+    # its boxes inwards, clear of the notch.
     a, _ = noisy_pair(phantom(centre=CENTRE, notch=(45, 50, 40)), 20.0, seed=5)
     with pytest.raises(BoxOutsidePhantomError, match="the upper-right box"):
-        resolve_roi(parse_roi("nema5"), a, None)
+        resolve_roi(parse_roi("nema5:20:40"), a, None)
+    mask, _ = find_phantom(a)
+    rois = resolve_roi(parse_roi("nema5"), a, None)
+    assert rois[0].note.code == "boxes_shrunk" and rois[0].note.values["offset_px"] < 40
+    assert all(mask[r.box[0]:r.box[0] + r.box[2], r.box[1]:r.box[1] + r.box[3]].all() for r in rois)
 
 
 def test_flipped_image_gives_the_flipped_layout():

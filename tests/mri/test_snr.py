@@ -273,8 +273,9 @@ def test_nema_noise_needs_two_pixels():
 
 def test_volume_slice_whose_boxes_leave_the_phantom_is_skipped_with_its_reason():
     # An 11-slice series: slice 4 has a dark insert under the centre box (measured: the box is
-    # inside the phantom), slice 7 a notch under the upper-right box and slice 10 is empty
-    # (past the phantom): both are skipped with their reason, the 9 others are measured.
+    # inside the phantom, and flagged as an outlier box), slice 7 a notch under the
+    # upper-right box (the default boxes move in, with a warning) and slice 10 is empty (past
+    # the phantom): it is skipped with its reason, the 10 others are measured.
     from tests.mri.phantoms import noisy_pair, phantom
 
     truths = [phantom() for _ in range(11)]
@@ -285,14 +286,18 @@ def test_volume_slice_whose_boxes_leave_the_phantom_is_skipped_with_its_reason()
     a, b = np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
     result = measure_arrays(a, b, None, {"nema": specs("nema5")})
     skipped = {s.index: s.skipped for s in result.slices if s.skipped}
-    assert sorted(skipped) == [7, 10]
-    assert "upper-right box" in skipped[7] and "outside the phantom" in skipped[7]
+    assert sorted(skipped) == [10]
     assert "no phantom found" in skipped[10]  # noise above the threshold spans the image
-    assert result.slices[7].methods == () and result.slices[4].methods[0].snr > 50
+    # the deep notch also pulls the mask's centroid 2+ px from the fitted circle's centre
+    assert {w.code for w in result.slices[7].warnings} == {"boxes_shrunk", "centroid_disagreement"}
+    assert [w.code for w in result.slices[4].warnings] == ["outlier_box"]
+    assert result.slices[4].methods[0].snr > 50
+    codes = {w.code: w for w in result.warnings}
+    assert codes["boxes_shrunk"].values["slice"] == 7 and codes["outlier_box"].values["slice"] == 4
     measured = [s.methods[0].snr for s in result.slices if not s.skipped]
-    assert len(measured) == 9 and result.summary("nema").snr == pytest.approx(np.mean(measured))
+    assert len(measured) == 10 and result.summary("nema").snr == pytest.approx(np.mean(measured))
     with pytest.raises(MeasurementError, match="no slice of the 2 could be measured"):
-        measure_arrays(a[[7, 10]], b[[7, 10]], None, {"nema": specs("nema5")})
+        measure_arrays(a[[10, 10]], b[[10, 10]], None, {"nema": specs("nema5")})
 
 
 def test_volume_slices_measure_as_single_images():
