@@ -159,14 +159,14 @@ def run(args) -> int:
     panels = [figure_panel(pair.name, pair.a, pair.b, pair.specs, pair.background_specs,
                            args.figure_slice)] if args.figure or args.report else []
     _write_outputs(args, [pair], panels)
-    for warning in pair.warnings:  # after the outputs: an error stays the only line
-        print(f"dacm snr: warning: {warning}", file=sys.stderr)
     if args.json:
         print(json.dumps(pair_dict(pair), indent=2))
     else:
         from mri.study import pair_text
 
         print("\n".join(pair_text(pair)))
+        for warning in pair.warnings:  # text mode, after the outputs (an error stays alone)
+            print(f"dacm snr: warning: {warning}", file=sys.stderr)
     return 0
 
 
