@@ -27,8 +27,7 @@ def test_import_mri_is_lazy_and_lists_what_the_readme_names():
     assert {"load_image", "load_pair", "measure_pair"} <= set(names)
     missing = [name for name in names if not re.search(rf"\b{name}\b", listed)]
     assert not missing, f"in mri.__all__ but not in the README's mri list: {missing}"
-    for name in names:  # every name resolves
-        subprocess.run([sys.executable, "-c", f"import mri; mri.{name}"], check=True, cwd=ROOT)
+    # every name resolves: tests/test_facades.py
 
 
 def test_the_readme_example_runs_and_prints_its_comments():
