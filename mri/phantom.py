@@ -292,6 +292,13 @@ def find_phantom(image: np.ndarray, near: tuple[float, float] | None = None
                             fit.inlier_fraction, fit.threshold, full(fit.centroid_px))
 
 
+def phantom_centroid(image: np.ndarray, near: tuple[float, float]) -> tuple[float, float]:
+    """The centroid (row, col) of the filled region above :func:`detection_threshold` that
+    holds ``near`` (the largest one otherwise), without fitting its outline: which object the
+    other image of a pair shows."""
+    return _centroid(fill_holes(largest_component(above(image, detection_threshold(image)), near)))
+
+
 def _find(image: np.ndarray, near=None) -> tuple[np.ndarray, PhantomFit]:
     threshold = detection_threshold(image)
     mask = fill_holes(largest_component(above(image, threshold), near))

@@ -34,24 +34,41 @@ class DifferenceModel:
     interior_rms: float
 
 
+def shift_and_gain(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float, float]:
+    """The least-squares (gain, shift rows, shift cols, offset) of a - b = -gain m + dr dm/drow
+    + dc dm/dcol + offset over one 2-D slice (m = (a + b) / 2; see the module), from the 4 x 4
+    normal equations: ten sums of products over the slice (einsum: no BLAS threads), no
+    N x 4 design matrix."""
+    a, b = a.astype(np.float64), b.astype(np.float64)
+    mean = (a + b) / 2
+    columns = (-mean, *np.gradient(mean))
+    diff = a - b
+    gram = np.empty((4, 4))
+    rhs = np.empty(4)
+    for i, x in enumerate(columns):
+        for j in range(i, 3):
+            gram[i, j] = gram[j, i] = np.einsum("ij,ij->", x, columns[j])
+        gram[i, 3] = gram[3, i] = x.sum()
+        rhs[i] = np.einsum("ij,ij->", x, diff)
+    gram[3, 3], rhs[3] = a.size, diff.sum()
+    # float64 absorbs the squared condition number of four columns; lstsq for a singular one
+    return tuple(float(v) for v in np.linalg.lstsq(gram, rhs, rcond=None)[0])
+
+
 def fit_difference(a: np.ndarray, b: np.ndarray, phantom: np.ndarray) -> DifferenceModel:
-    """Fit shift and gain to a - b of one 2-D slice; ``phantom`` is its filled mask (the edge
-    is the 2 px band on each side of the mask's border)."""
+    """Fit shift and gain to a - b of one 2-D slice (:func:`shift_and_gain`) and measure the
+    edge's RMS before and after removing them; ``phantom`` is the filled mask (the edge is the
+    2 px band on each side of its border)."""
     from scipy import ndimage
 
+    gain, dr, dc, offset = shift_and_gain(a, b)
     a, b = a.astype(np.float64), b.astype(np.float64)
     mean = (a + b) / 2
     grad_r, grad_c = np.gradient(mean)
-    design = np.stack([-mean.ravel(), grad_r.ravel(), grad_c.ravel(), np.ones(a.size)])
-    diff = (a - b).ravel()
-    # least squares by the 4 x 4 normal equations (a tenth of the time of an SVD of the
-    # N x 4 design; for four columns float64 absorbs the squared condition number)
-    coef = np.linalg.lstsq(design @ design.T, design @ diff, rcond=None)[0]
-    gain, dr, dc = coef[:3]
-    residual = (diff - coef @ design).reshape(a.shape)
+    d = a - b
+    residual = d - (-gain * mean + dr * grad_r + dc * grad_c + offset)
     edge = ndimage.binary_dilation(phantom, iterations=2) & ~ndimage.binary_erosion(phantom, iterations=2)
     inner = ndimage.binary_erosion(phantom, iterations=10)
-    d = diff.reshape(a.shape)
-    return DifferenceModel(float(dr), float(dc), float(gain), float(np.sqrt(np.mean(d[edge] ** 2))),
+    return DifferenceModel(dr, dc, gain, float(np.sqrt(np.mean(d[edge] ** 2))),
                            float(np.sqrt(np.mean(residual[edge] ** 2))),
                            float(np.std(d[inner])))

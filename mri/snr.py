@@ -507,32 +507,7 @@ def measure_arrays(
         slices = [_measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs,
                                          kernel_px, needs_phantom)
                   for k in range(a.shape[0])]
-    if b is not None:
-        slices = _with_registration(slices, a, b)
     return summarise(tuple(slices), normalisation_factor)
-
-
-def _with_registration(slices: list[SliceResult], a: np.ndarray, b: np.ndarray) -> list[SliceResult]:
-    """The slices, the middle measured one with the ``misregistration`` and ``gain_change``
-    checks of :func:`mri.registration.fit_difference` added (one slice of a volume: the fit
-    costs a few ms a slice, and a moved phantom or a gain change shows on every slice)."""
-    import dataclasses
-
-    from mri.phantom import find_phantom
-    from mri.quality import registration_warnings
-    from mri.registration import fit_difference
-
-    measured = [s for s in slices if not s.skipped]
-    if not measured:
-        return slices
-    middle = measured[len(measured) // 2]
-    try:
-        mask, _ = find_phantom(a[middle.index])
-    except RoiError:  # no phantom (e.g. a whole-image ROI on a test pattern): nothing to fit
-        return slices
-    model = fit_difference(a[middle.index], b[middle.index], mask)
-    checked = dataclasses.replace(middle, warnings=middle.warnings + tuple(registration_warnings(model)))
-    return [checked if s is middle else s for s in slices]
 
 
 def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_specs, kernel_px,
@@ -541,16 +516,18 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
     failed; pixels are read as they are (float32 or float64) and measured in float64."""
     import dataclasses
 
-    from mri.phantom import find_phantom
-    from mri.quality import check_same_object, outlier_box_warnings, phantom_warnings
+    from mri.phantom import find_phantom, phantom_centroid
+    from mri.quality import check_same_object, outlier_box_warnings, phantom_warnings, registration_warnings
 
     a_k, b_k = a[k], None if b is None else b[k]
     try:
         found = find_phantom(a_k) if needs_phantom else None
-        warnings = []
+        # shift and gain of b on one slice (the middle one of a volume: a moved phantom or a
+        # gain change shows on every slice, and the fit costs a few ms a slice)
+        warnings = registration_warnings(a_k, b_k) if b_k is not None and k == a.shape[0] // 2 else []
         if found is not None:
             if b_k is not None:
-                check_same_object(found[1], find_phantom(b_k, near=found[1].centre_px)[1])
+                check_same_object(found[1], phantom_centroid(b_k, found[1].centre_px))
             warnings += phantom_warnings(found[1])
 
         def resolve(specs):

@@ -3,8 +3,8 @@
 The cases are made from the real Siemens Aera pair (NEMA SNR 220, thesis 136.9, no warning)
 by the change named, so each warning is checked against a known cause:
 
-* b shifted by 3 px (np.roll): ``misregistration`` (the linear fit reads ~2.4 px, over the
-  0.3 px limit);
+* b shifted by 3 px (np.roll): ``misregistration`` (the first-order fit on 2 x 2 means reads
+  3.6 px, over the 0.3 px limit);
 * b x 0.95: ``gain_change`` (-5 %, over the 2 % limit);
 * a dark insert under the upper-left box in both images (the same 90 % of the box's mean
   signal taken off both, so the noise stays): ``outlier_box`` naming that box (its SNR falls
@@ -54,7 +54,7 @@ def test_a_three_pixel_shift_warns_misregistration(aera):
     pair = mri.measure_pair(a, with_pixels(b, np.roll(b.pixels, 3, axis=1)))
     assert "misregistration" in codes(pair)
     warning = next(w for w in pair.warnings if w.code == "misregistration")
-    assert 1.5 < warning.values["shift_row_px"] < 3.5  # the first-order fit reads it low
+    assert 2.0 < warning.values["shift_row_px"] < 4.5  # a first-order fit: roughly
     assert pair.result.summary("thesis").snr < 0.2 * 136.9  # the number it protects
 
 
