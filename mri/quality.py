@@ -133,32 +133,12 @@ def outlier_box_warnings(method_result) -> list[QualityWarning]:
          "factor": OUTLIER_FACTOR, "rois": {r.roi: r.snr for r in out}})]
 
 
-#: Slices at least this many pixels on each side are fitted at half resolution (the shift
-#: limit is 0.3 px; the fit of a 128 x 128 image reads shifts to a few hundredths).
-BIN_FROM_PX = 256
-
-
-def _binned(image):
-    """2 x 2 means of a 2-D image (an odd last row or column dropped), float64."""
-    import numpy as np
-
-    even = image[: image.shape[0] // 2 * 2, : image.shape[1] // 2 * 2]
-    out = np.add(even[0::2, 0::2], even[1::2, 0::2], dtype=np.float64)
-    out += even[0::2, 1::2]
-    out += even[1::2, 1::2]
-    return out * 0.25
-
-
 def registration_warnings(a, b) -> list[QualityWarning]:
     """``misregistration`` and ``gain_change`` of b against a (2-D slices), fitted to a - b
     (:func:`mri.registration.shift_and_gain`)."""
     from mri.registration import shift_and_gain
 
-    if min(a.shape) >= BIN_FROM_PX:  # 2 x 2 means: a quarter of the work, shifts in 2 px units
-        gain, shift_row, shift_col, _ = shift_and_gain(_binned(a), _binned(b))
-        shift_row, shift_col = 2 * shift_row, 2 * shift_col
-    else:
-        gain, shift_row, shift_col, _ = shift_and_gain(a, b)
+    gain, shift_row, shift_col, _ = shift_and_gain(a, b)
     warnings = []
     shift = max(abs(shift_row), abs(shift_col))
     if shift > MAX_SHIFT_PX:
