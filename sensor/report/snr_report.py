@@ -143,7 +143,6 @@ def _difference_note(pair, slice_index: int) -> str:
     """What a - b shows at the phantom's edge, from the fitted shift and gain: the text
     follows the numbers (a shift or gain over the limits of :mod:`mri.quality` is said to
     matter, and whether the ring reaches a signal ROI is measured)."""
-    import numpy as np
     from scipy import ndimage
 
     from mri.phantom import find_phantom
@@ -163,27 +162,27 @@ def _difference_note(pair, slice_index: int) -> str:
             f"intensity differs by {100 * fit.gain:+.3f} %. On the phantom's edge a - b has an RMS "
             f"of {fit.edge_rms:.1f} (pixel units), {fit.edge_rms_after:.1f} once the shift and gain "
             f"are removed, against {fit.interior_rms:.1f} inside the phantom (noise x sqrt 2). ")
-    if shift > MAX_SHIFT_PX:
-        text += (f"A shift of {shift:.2f} px is over the {MAX_SHIFT_PX:g} px limit: the phantom "
-                 "moved (or the frequency drifted far) between the acquisitions, the edge in a - b "
-                 "is a misregistration, not noise, and the linear fit reads a shift this large "
-                 "low. ")
-    else:
-        text += ("The ring at the edge, bright on one side and dark on the opposite, is this "
-                 "sub-pixel misregistration acting on the steep edge (and on its Gibbs ripples, "
-                 "the same in both images otherwise). ")
     if abs(100 * fit.gain) > MAX_GAIN_PERCENT:
         text += (f"A gain change of {100 * fit.gain:+.1f} % (limit {MAX_GAIN_PERCENT:g} %) leaves a "
                  "copy of the image in a - b: every subtraction SNR reads low. ")
-    band = ndimage.binary_dilation(mask, iterations=2) & ~ndimage.binary_erosion(
-        mask, iterations=int(np.ceil(shift)) + 2)
+    if shift > MAX_SHIFT_PX:
+        return text + (
+            f"A shift of {shift:.2f} px is over the {MAX_SHIFT_PX:g} px limit: the phantom moved "
+            "(or the frequency drifted far) between the acquisitions. The edge in a - b is a "
+            "misregistration, not noise, and so is whatever structure inside the phantom moved "
+            "with it (ripples, texture): every ROI's noise is raised, not only the edge's. A "
+            "first-order fit reads a shift this large only roughly.")
+    text += ("The ring at the edge, bright on one side and dark on the opposite, is this "
+             "sub-pixel misregistration acting on the steep edge (and on its Gibbs ripples, "
+             "the same in both images otherwise). ")
+    band = ndimage.binary_dilation(mask, iterations=2) & ~ndimage.binary_erosion(mask, iterations=2)
     reached = sorted({roi.label for specs in pair.specs.values() for spec in specs
                       for roi in resolve_roi(spec, a, pair.a.pixel_spacing_mm, slice_index)
                       if roi.label != "whole" and (roi.mask & band).any()})
-    text += (f"The edge band (2 px, plus the shift) reaches the ROI(s) {', '.join(reached)}, whose "
-             "noise it raises." if reached else
-             "No signal ROI but the whole image reaches the edge band (2 px, plus the shift), "
-             "so the ring enters only a whole-image noise.")
+    text += (f"The edge band (the 2 px on each side of the edge) reaches the ROI(s) "
+             f"{', '.join(reached)}, whose noise it raises." if reached else
+             "No signal ROI but the whole image reaches the edge band (the 2 px on each side of "
+             "the edge), so the ring enters only a whole-image noise.")
     bandwidth = pair.a.acquisition.get("pixel_bandwidth_hz")
     if isinstance(bandwidth, float):
         text += (f" At {bandwidth:g} Hz/pixel, a shift of {shift:.3f} px along the readout is a "
