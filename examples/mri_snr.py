@@ -32,6 +32,7 @@ print(f"difference sum|a-b| / sum a = {result.difference_percent:.3f} %")
 
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("mri_snr.png")
 rois = resolve_roi(parse_roi("nema5"), a.pixels[0].astype(float), a.pixel_spacing_mm)
-figure = pair_figure([PairPanel("Siemens Aera pair", a.pixels[0], b.pixels[0], rois, result.difference_percent)])
+figure = pair_figure([PairPanel("Siemens Aera pair", a.pixels[0], b.pixels[0], rois, "image 1", "image 2",
+                                a.pixel_spacing_mm)])
 save_figure(figure, out)
 print(f"figure: {out}")

@@ -15,6 +15,7 @@ resonance frequency of a few Hz does (shift = drift / pixel bandwidth).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,6 +72,8 @@ def shift_and_gain(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float, f
         gram[i, 3] = gram[3, i] = x.sum()
         rhs[i] = np.einsum("ij,ij->", x, diff)
     gram[3, 3], rhs[3] = a.size, diff.sum()
+    if not (np.isfinite(gram).all() and np.isfinite(rhs).all()):
+        return (math.nan,) * 4  # pixels near 1e154 overflow the sums: nothing to fit
     # float64 absorbs the squared condition number of four columns; lstsq for a singular one
     return tuple(float(v) for v in np.linalg.lstsq(gram, rhs, rcond=None)[0])
 

@@ -522,9 +522,7 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
     a_k, b_k = a[k], None if b is None else b[k]
     try:
         found = find_phantom(a_k) if needs_phantom else None
-        # shift and gain of b on one slice (the middle one of a volume: a moved phantom or a
-        # gain change shows on every slice, and the fit costs a few ms a slice)
-        warnings = registration_warnings(a_k, b_k) if b_k is not None and k == a.shape[0] // 2 else []
+        warnings = []
         if found is not None:
             if b_k is not None:
                 check_same_object(found[1], phantom_centroid(b_k, found[1].centre_px))
@@ -539,6 +537,10 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
                 warnings.append(note)
         result = measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px)
         warnings += [w for m in result.methods for w in outlier_box_warnings(m)]
+        if b_k is not None and k == a.shape[0] // 2:
+            # shift and gain of b on one slice (the middle one of a volume: a moved phantom or
+            # a gain change shows on every slice, and the fit costs a millisecond a slice)
+            warnings += registration_warnings(a_k, b_k)
         return dataclasses.replace(result, warnings=tuple(warnings))
     except (RoiError, MeasurementError, PairMismatchError) as exc:
         if a.shape[0] == 1:

@@ -184,12 +184,6 @@ def _run_conditions(args, options) -> int:
         pair = _measure(name, b1, b2, args, options)
         warnings = check_pair(reference.a, pair.a, ("reference", name))
         conditions.append((pair, warnings, difference_percent(reference.a.pixels, pair.a.pixels)))
-    for pair in [reference] + [c[0] for c in conditions]:
-        for warning in pair.warnings:
-            print(f"dacm snr: warning: {pair.name}: {warning}", file=sys.stderr)
-    for pair, warnings, _ in conditions:
-        for warning in warnings:
-            print(f"dacm snr: warning: reference vs {pair.name}: {warning}", file=sys.stderr)
     panels = [figure_panel(f"reference vs {p.name}", reference.a, p.a, p.specs, p.background_specs,
                            args.figure_slice) for p, _, _ in conditions] if args.figure or args.report else []
     _write_outputs(args, [reference] + [c[0] for c in conditions], panels, (reference, conditions))
@@ -197,4 +191,10 @@ def _run_conditions(args, options) -> int:
         print(json.dumps(comparison_json(reference, conditions), indent=2))
     else:
         print("\n".join(comparison_text(reference, conditions)))
+        for pair in [reference] + [c[0] for c in conditions]:  # text mode, after the outputs
+            for warning in pair.warnings:
+                print(f"dacm snr: warning: {pair.name}: {warning}", file=sys.stderr)
+        for pair, warnings, _ in conditions:
+            for warning in warnings:
+                print(f"dacm snr: warning: reference vs {pair.name}: {warning}", file=sys.stderr)
     return 0
