@@ -6,8 +6,8 @@ and the ``values`` it was decided on. The checks and their limits:
 
 * ``misregistration``: the shift of b against a fitted to a - b (:mod:`mri.registration`)
   exceeds MAX_SHIFT_PX. A shifted edge leaks into the noise of every ROI that reaches it,
-  and into the thesis method's whole-image noise at once (a 3 px shift reads the thesis SNR
-  14 times low);
+  and into the thesis method's whole-image noise at once (a 3 px shift of the Aera pair
+  reads its thesis SNR 12 times low);
 * ``gain_change``: the fitted gain of b over a exceeds MAX_GAIN_PERCENT: the difference
   then holds a copy of the image (SNR reads low wherever the signal is high);
 * ``outlier_box``: a ROI's SNR differs from the median ROI's by more than OUTLIER_FACTOR
@@ -22,7 +22,7 @@ and the ``values`` it was decided on. The checks and their limits:
   pair's descriptive headers differ, the SNR is low enough for magnitude noise to bias it,
   slices of a volume could not be measured, the header lacks a normalisation input.
 
-The limits were set on hazen's 14-pair corpus (tests/data/mri): its pairs read shifts up to
+The limits were set on hazen's 13-pair corpus (tests/data/mri): its pairs read shifts up to
 0.15 px, gains up to 0.5 %, box SNRs up to x1.45 from the median (the Aera's centre box,
 under a head array's darker centre), inlier fractions down to 0.67 (the Philips phantom's
 distorted rectangle); a rotated rectangle (the Vida pair, 0.46) is flagged.

@@ -15,8 +15,8 @@ ROI texts (sizes are pixels, or millimetres with an ``mm`` suffix; boxes are zer
                                    at (+-OFFSET, +-OFFSET) from it (default 40 px), as MRI QA
                                    tools (hazen, McCann et al. 2013) place them for NEMA MS 1;
                                    every box must lie inside the phantom (holes filled): the
-                                   default layout shrinks to the largest that does (size first,
-                                   then offset, boxes down to NEMA5_MIN_SIZE_PX), a given one
+                                   default layout shrinks to the largest that does (the largest
+                                   size, down to NEMA5_MIN_SIZE_PX, at its largest offset), a given one
                                    or a phantom too small raises
                                    :class:`BoxOutsidePhantomError` with the boxes to draw
 ``corners[:SIZE]``                 four SIZE boxes (default 1/8 of the image) in the image

@@ -3,8 +3,8 @@ air bubble, with inserts, rectangles) and against the centre hazen pins for the 
 
 Tolerance: 0.6 px on the centre. The outline is found to the pixel and a circle fit over
 ~700 outline points averages that quantisation down; partial-volume edge pixels under strong
-shading move the outline by up to ~0.3 px on the dark side (the threshold is a fixed
-fraction of the bright level), and a rectangle's sides are medians of whole pixels (+-0.5 px).
+shading move the outline by up to ~0.3 px on the dark side (a pixel joins the mask when its
+share of the edge lifts it over the threshold, which is set by the air's noise), and a rectangle's sides are medians of whole pixels (+-0.5 px).
 The naive method (Otsu mask, holes filled, centroid) is run on the same images to show that
 the cases are hard: it misses by 2-8 px.
 """
