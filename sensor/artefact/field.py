@@ -52,11 +52,15 @@ def b0_unit(direction) -> np.ndarray:
     return v / norm
 
 
-def padded_shape(shape, pad_factor: float = PAD_FACTOR) -> tuple[int, ...]:
-    """The FFT grid: each axis at least ``pad_factor`` times longer, a fast FFT size."""
-    if not (isinstance(pad_factor, (int, float)) and math.isfinite(pad_factor) and pad_factor >= 1.0):
-        raise ArtefactError(f"pad_factor = {pad_factor!r}: must be a number >= 1")
-    return tuple(scipy.fft.next_fast_len(math.ceil(n * pad_factor), real=True) for n in shape)
+def padded_shape(shape, pad_factor=PAD_FACTOR) -> tuple[int, ...]:
+    """The FFT grid: each axis at least ``pad_factor`` times longer (one number, or one per
+    axis; 1 leaves an axis periodic), a fast FFT size."""
+    factors = tuple(pad_factor) if isinstance(pad_factor, (tuple, list)) else (pad_factor,) * len(shape)
+    if len(factors) != len(shape) or not all(isinstance(f, (int, float)) and math.isfinite(f)
+                                             and f >= 1.0 for f in factors):
+        raise ArtefactError(f"pad_factor = {pad_factor!r}: must be a number >= 1, or one per axis")
+    return tuple(n if f == 1.0 else scipy.fft.next_fast_len(math.ceil(n * f), real=True)
+                 for n, f in zip(shape, factors))
 
 
 def dipole_kernel(shape, voxel_mm: float, b0) -> np.ndarray:
