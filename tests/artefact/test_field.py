@@ -128,3 +128,12 @@ def test_padding_and_hz():
         padded_shape((10, 10, 10), 0.5)
     # 1 ppm at 3 T is 127.7 Hz for protons
     assert offset_hz(1.0, 3.0) == pytest.approx(127.73, abs=0.01)
+
+
+def test_field_is_quadratic_in_the_b0_direction():
+    """D = 1/3 - b_i b_j k_i k_j / k^2 is linear in b b^T: the fields for B0 along
+    (x + y)/√2 and (x - y)/√2 add up to those along x and y (the cross terms cancel)."""
+    chi = np.random.default_rng(1).normal(size=(12, 10, 8)).astype(np.float32)
+    f = {b: field_offset_ppm(chi, 0.5, b) for b in ("x", "y", "1,1,0", "1,-1,0")}
+    assert np.allclose(f["1,1,0"] + f["1,-1,0"], f["x"] + f["y"], atol=1e-5)
+    assert not np.allclose(f["1,1,0"], f["1,-1,0"], atol=1e-3)
