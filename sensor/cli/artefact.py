@@ -55,7 +55,8 @@ def output_names(name: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from sensor.artefact.field import b0_unit
-    from sensor.artefact.prediction import PROTOCOL_RULES, Protocol
+    from sensor.artefact.prediction import PROTOCOL_RULES, Protocol, block_factor
+    from sensor.errors import ArtefactError, UsageError
     from sensor.validation import Number
 
     design = design_from_args(args)
@@ -64,14 +65,10 @@ def run(args: argparse.Namespace) -> int:
                        "voxel_mm": PROTOCOL_RULES["voxel_mm"],
                        "resolution_mm": Number(0.0, 5.0, lo_open=True, unit="mm"),
                        "margin_mm": Number(5.0, 200.0, unit="mm")})
-    from sensor.errors import ArtefactError, UsageError
-
     try:
         b0_unit(args.b0_direction)
-        protocol = Protocol(args.b0, args.te_ms, args.bandwidth_hz_per_px, args.voxel_mm)
-        from sensor.artefact.prediction import block_factor
-
         block_factor(args.voxel_mm, args.resolution_mm)
+        protocol = Protocol(args.b0, args.te_ms, args.bandwidth_hz_per_px, args.voxel_mm)
     except ArtefactError as exc:
         raise UsageError(_flagged(str(exc))) from None
     paths = claim(args, output_names(design.name))
@@ -80,13 +77,12 @@ def run(args: argparse.Namespace) -> int:
         from sensor.artefact.plots import field_figure, image_figure
         from sensor.artefact.prediction import predict
 
-        step("field and image")
+        step("voxels, field and image")
         a = predict(design, protocol, args.medium, args.b0_direction, args.resolution_mm, args.margin_mm)
-        summary = a.summary()
+        summary = {**a.summary(), "files": [str(p) for p in paths]}
         step("figures")
         figures = (field_figure(a), image_figure(a))
         make_out_dir(args.out)
-        summary["files"] = [str(p) for p in paths]
         with atomic_path(paths[0]) as tmp:
             tmp.write_text(json.dumps(summary, indent=1) + "\n")
         for fig, path in zip(figures, paths[1:]):
