@@ -41,7 +41,7 @@ def _extent(grid, u: int, v: int) -> list[float]:
 
 def _panels(fig: Figure, title: str):
     fig.suptitle(title, fontsize=10)
-    return fig.subplots(1, 3, gridspec_kw={"wspace": 0.35})
+    return fig.subplots(1, 3, width_ratios=(85, 85, 90))
 
 
 def _outline(ax, a: Artefact, normal: int, u: int, v: int, at: float, colour: str) -> None:
@@ -55,7 +55,7 @@ def field_figure(a: Artefact) -> Figure:
     g, p = a.scene.grid, a.protocol
     medium = a.distance_mm > 0
     lim = float(np.percentile(np.abs(a.field_ppm[medium]), 99.9)) or 1e-3
-    fig = Figure(figsize=(13, 4.6))
+    fig = Figure(figsize=(14, 4.2), layout="constrained")
     b = ", ".join(f"{v:.2g}" for v in a.b0_direction)
     axes = _panels(fig, f"{a.design.name} ({a.body_material}) in {a.scene.medium}: field offset, "
                         f"B0 = {p.b0_T:g} T along ({b}), field voxel {g.voxel_mm:g} mm")
@@ -67,7 +67,7 @@ def field_figure(a: Artefact) -> Figure:
         ax.set(title=f"{title} ({_NAMES[n]} = {at[n]:.1f} mm)", xlabel=f"{_NAMES[u]} (mm)",
                ylabel=f"{_NAMES[v]} (mm)")
         ax.title.set_fontsize(9)
-    bar = fig.colorbar(im, ax=list(axes), shrink=0.85, label="ΔB/B0 (ppm)")
+    bar = fig.colorbar(im, ax=list(axes), shrink=0.9, pad=0.08, label="ΔB/B0 (ppm)")
     hz = bar.ax.secondary_yaxis("left", functions=(lambda x: offset_hz(x, p.b0_T),
                                                 lambda f: f / offset_hz(1.0, p.b0_T)))
     hz.set_ylabel(f"Δf at {p.b0_T:g} T (Hz)")
@@ -79,7 +79,7 @@ def image_figure(a: Artefact) -> Figure:
     slices, the sensor's outline (blue) and the artefact region, loss > 30 % (red)."""
     g, ig, p = a.scene.grid, a.image_grid, a.protocol
     s = a.summary()["gradient_echo"]
-    fig = Figure(figsize=(13, 4.6))
+    fig = Figure(figsize=(13, 4.2), layout="constrained")
     axes = _panels(fig, f"{a.design.name} ({a.body_material}) in {a.scene.medium}: gradient echo "
                         f"TE {p.te_ms:g} ms at {p.b0_T:g} T, voxel {p.voxel_mm:g} mm; red: signal "
                         f"loss > {100 * SIGNAL_LOSS_THRESHOLD:.0f} %, reaching {s['extent_mm']:.1f} mm "
