@@ -70,10 +70,12 @@ def dipole_kernel(shape, voxel_mm: float, b0) -> np.ndarray:
     kx = scipy.fft.fftfreq(shape[0], voxel_mm).astype(np.float32)[:, None, None]
     ky = scipy.fft.fftfreq(shape[1], voxel_mm).astype(np.float32)[None, :, None]
     kz = scipy.fft.rfftfreq(shape[2], voxel_mm).astype(np.float32)[None, None, :]
-    k2 = kx * kx + ky * ky + kz * kz
-    kb = kx * np.float32(b[0]) + ky * np.float32(b[1]) + kz * np.float32(b[2])
+    k2 = (kx * kx + ky * ky) + kz * kz          # the only two full-size arrays: k2 and d
+    d = (kx * np.float32(b[0]) + ky * np.float32(b[1])) + kz * np.float32(b[2])
     k2[0, 0, 0] = 1.0
-    d = np.float32(1.0 / 3.0) - kb * kb / k2
+    np.square(d, out=d)
+    np.divide(d, k2, out=d)
+    np.subtract(np.float32(1.0 / 3.0), d, out=d)
     d[0, 0, 0] = 0.0
     return d
 
