@@ -18,6 +18,6 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "voxels": ["Grid", "grid_around", "occupancy"],
         "scene": ["Scene", "sensor_scene"],
         "prediction": ["Artefact", "Protocol", "predict"],
-        "plots": ["field_figure", "image_figure"],
+        "plots": ["comparison_figure", "field_figure", "image_figure"],
     },
 )

@@ -95,3 +95,27 @@ def image_figure(a: Artefact) -> Figure:
                ylabel=f"{_NAMES[v]} (mm)")
         ax.title.set_fontsize(9)
     return fig
+
+
+def comparison_figure(artefacts: list[Artefact]) -> Figure:
+    """The simulated gradient-echo images of several predictions side by side (one column
+    each; x-y mid-plane above, y-z through the fiber below), artefact region in red."""
+    fig = Figure(figsize=(4.2 * len(artefacts), 7.6), layout="constrained")
+    p = artefacts[0].protocol
+    fig.suptitle(f"gradient echo TE {p.te_ms:g} ms at {p.b0_T:g} T, voxel {p.voxel_mm:g} mm: "
+                 f"red, signal loss > {100 * SIGNAL_LOSS_THRESHOLD:.0f} %", fontsize=10)
+    axes = fig.subplots(2, len(artefacts), squeeze=False)
+    for col, a in enumerate(artefacts):
+        ig, at = a.image_grid, slice_points(a)
+        extent = a.summary()["gradient_echo"]["extent_mm"]
+        for row, (title, n, u, v) in enumerate((_VIEWS[0], _VIEWS[2])):
+            ax = axes[row, col]
+            ax.imshow(_cut(a.magnitude, ig, n, at[n]).T, origin="lower", extent=_extent(ig, u, v),
+                      cmap="gray", vmin=0.0, vmax=1.2, interpolation="nearest")
+            ax.contour(ig.centres(u), ig.centres(v), _cut(a.artefact, ig, n, at[n]).T.astype(float),
+                       levels=[0.5], colors="red", linewidths=0.9)
+            _outline(ax, a, n, u, v, at[n], "tab:blue")
+            ax.set(xlabel=f"{_NAMES[u]} (mm)", ylabel=f"{_NAMES[v]} (mm)")
+            ax.set_title(f"{a.body_material} in {a.scene.medium}: {extent:.1f} mm" if row == 0 else title,
+                         fontsize=9)
+    return fig
