@@ -24,8 +24,10 @@ def register(subparsers) -> None:
                     "compute the B0 offset they make (dipole kernel by FFT, Lorentz-corrected) and "
                     "from it the offset 1, 2 and 5 mm from the surface, the spin-echo readout "
                     "shift and the extent of the gradient-echo signal loss above 30 %% (ASTM "
-                    "F2119). Writes OUT/<name>-artefact.json, -artefact-field.png and "
-                    "-artefact-image.png. Linear magnetisation; no eddy currents, no chemical shift.")
+                    "F2119). Writes OUT/<name>-artefact.json (the numbers), -artefact-field.png "
+                    "and -artefact-image.png (three slices each) and -artefact.nc (the field "
+                    "map in ppm and Hz, the simulated image; NetCDF-4). Linear magnetisation; "
+                    "no eddy currents, no chemical shift.")
     add_design_arguments(p)
     p.add_argument("--b0", type=float, default=3.0, metavar="T", help="main field, T (default 3)")
     p.add_argument("--te-ms", type=float, default=10.0, metavar="MS",
@@ -43,14 +45,15 @@ def register(subparsers) -> None:
     p.add_argument("--b0-direction", default="z", metavar="DIR",
                    help="B0 in the sensor's frame: x (across), y (force axis), z (through the "
                         "sheet; default) or a vector such as 0,1,1")
-    add_output_arguments(p, "the JSON numbers and the two figures")
+    add_output_arguments(p, "the JSON numbers, the two figures and the maps")
     p.add_argument("--json", action="store_true", help="print the numbers as JSON")
     add_quiet_argument(p)
     p.set_defaults(func=run)
 
 
 def output_names(name: str) -> list[str]:
-    return [f"{name}-artefact.json", f"{name}-artefact-field.png", f"{name}-artefact-image.png"]
+    return [f"{name}-artefact.json", f"{name}-artefact-field.png", f"{name}-artefact-image.png",
+            f"{name}-artefact.nc"]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -74,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     paths = claim(args, output_names(design.name))
     with busy(f"artefact {design.name}", args.quiet) as step:
         from geometry.atomic import atomic_path, save_figure
+        from sensor.artefact.dataset import artefact_dataset, write_dataset
         from sensor.artefact.plots import field_figure, image_figure
         from sensor.artefact.prediction import predict
 
@@ -85,8 +89,11 @@ def run(args: argparse.Namespace) -> int:
         make_out_dir(args.out)
         with atomic_path(paths[0]) as tmp:
             tmp.write_text(json.dumps(summary, indent=1) + "\n")
-        for fig, path in zip(figures, paths[1:]):
+        for fig, path in zip(figures, paths[1:3]):
             save_figure(fig, path, dpi=110)
+        step("maps")
+        with atomic_path(paths[3]) as tmp:
+            write_dataset(artefact_dataset(a), tmp)
     if args.json:
         print(json.dumps(summary, indent=1))
         return 0

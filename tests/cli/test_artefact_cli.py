@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
+import xarray as xr
 
 from sensor.cli import main
 from tests.conftest import assert_one_line_error
@@ -24,8 +26,14 @@ def test_json_numbers_and_files(capsys, tmp_path):
     assert [r["distance_mm"] for r in s["surface_offsets"]] == [1.0, 2.0, 5.0]
     assert set(s["gradient_echo"]) == {"loss_threshold", "extent_mm", "volume_mm3", "reaches_fov_edge"}
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["basis-artefact-field.png", "basis-artefact-image.png", "basis-artefact.json"]
+    assert names == ["basis-artefact-field.png", "basis-artefact-image.png", "basis-artefact.json",
+                     "basis-artefact.nc"]
     assert json.loads((tmp_path / "basis-artefact.json").read_text())["surface_offsets"] == s["surface_offsets"]
+    with xr.open_dataset(tmp_path / "basis-artefact.nc", engine="h5netcdf") as ds:
+        hz_per_ppm = s["max_offset_hz"] / s["max_offset_ppm"]
+        assert np.allclose(ds["field_hz"], ds["field_ppm"] * hz_per_ppm, rtol=1e-5, atol=1e-6)
+        assert ds["field_ppm"].attrs["units"] == "ppm" and ds["x"].attrs["units"] == "mm"
+        assert json.loads(ds.attrs["summary"])["gradient_echo"] == s["gradient_echo"]
 
 
 def test_text_output_and_the_output_rule(capsys, tmp_path):
