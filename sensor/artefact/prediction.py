@@ -115,7 +115,7 @@ class Artefact:
         medium = self.distance_mm > 0
         peak = float(np.max(np.abs(self.field_ppm[medium])))
         edge = np.zeros(outside.shape, bool)
-        edge[[0, -1], :, :] = edge[:, [0, -1], :] = edge[:, :, [0, -1]] = True
+        edge[[0, -1], :, :] = edge[:, -1, :] = edge[:, :, [0, -1]] = True  # y min: the fiber leaves
         return {
             "design": self.design.name,
             "material": self.body_material,
@@ -188,8 +188,9 @@ def predict(design: Design, protocol: Protocol = Protocol(), medium: str = "wate
     distance = np.where(solid, 0.0, distance - resolution_mm / 2.0).astype(np.float32)
     water = 1.0 - scene.solid
     magnitude = gradient_echo_magnitude(field, water, resolution_mm, block, protocol.b0_T, protocol.te_ms)
-    if medium == "air":  # no signal in air: the loss of the dephasing alone
-        magnitude = magnitude / np.maximum(_block_mean(water, block), 1e-6)
+    if medium == "air":  # no signal in air: the loss of the dephasing alone (0 in the sensor)
+        fraction = _block_mean(water, block)
+        magnitude = np.divide(magnitude, fraction, out=np.zeros_like(magnitude), where=fraction > 1e-3)
     inside = _block_mean(scene.solid, block) >= _INSIDE
     artefact = magnitude < 1.0 - SIGNAL_LOSS_THRESHOLD
     result = Artefact(design, protocol, tuple(float(v) for v in b), scene, field, distance,

@@ -70,3 +70,15 @@ def test_metal_spoils_far_more_than_the_polymers(three_materials):
         assert not s["gradient_echo"]["reaches_fov_edge"]
 
 
+
+
+def test_in_air_the_loss_is_the_dephasing_and_the_fiber_face_is_not_an_edge():
+    """In air: no signal inside the sensor (0), full signal far away (1); the fiber's own
+    artefact runs out of the box through the low-y face, which is not the artefact
+    reaching the edge."""
+    a = predict(preset("basis"), Protocol(), "air", resolution_mm=1.0, margin_mm=10.0)
+    all_solid = a.scene.solid >= 0.999       # resolution = voxel: field and image grids are one
+    assert all_solid.any() and np.all(a.magnitude[all_solid] == 0.0)
+    assert a.magnitude[0, -1, 0] == pytest.approx(1.0, abs=0.02)
+    assert a.artefact[:, 0, :].any()                      # the fiber's artefact at the face
+    assert not a.summary()["gradient_echo"]["reaches_fov_edge"]
