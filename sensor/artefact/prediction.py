@@ -61,13 +61,19 @@ class Protocol:
         check_fields(self, PROTOCOL_RULES, ArtefactError)
 
 
-#: The rule of each :class:`Protocol` field: clinical and research scanners, 0.05-20 T.
+#: The rule of each :class:`Protocol` field (research magnets reach 11.7 T for humans, 20 T
+#: for small animals).
 PROTOCOL_RULES = {
     "b0_T": Number(0.0, 20.0, lo_open=True, unit="T"),
     "te_ms": Number(0.0, 1000.0, lo_open=True, unit="ms"),
     "bandwidth_hz_per_px": Number(0.0, 1e6, lo_open=True, unit="Hz per pixel"),
     "voxel_mm": Number(0.0, 20.0, lo_open=True, unit="mm"),
 }
+
+#: The rules of the field grid: its voxel, and the margin around the sensor (at least 5 mm
+#: and a voxel, so that every shell of :data:`SURFACE_DISTANCES_MM` lies in the box).
+GRID_RULES = {"resolution_mm": Number(0.0, 5.0, lo_open=True, unit="mm"),
+              "margin_mm": Number(10.0, 200.0, unit="mm")}
 
 
 @dataclass(frozen=True)
@@ -177,9 +183,7 @@ def predict(design: Design, protocol: Protocol = Protocol(), medium: str = "wate
             workers: int | None = None) -> Artefact:
     """The artefact of a design's sensor (body, fiber, mirror) in ``medium`` for a scan."""
     b = b0_unit(b0_direction)
-    check_fields({"resolution_mm": resolution_mm, "margin_mm": margin_mm},
-                 {"resolution_mm": Number(0.0, 5.0, lo_open=True, unit="mm"),
-                  "margin_mm": Number(5.0, 200.0, unit="mm")}, ArtefactError)
+    check_fields({"resolution_mm": resolution_mm, "margin_mm": margin_mm}, GRID_RULES, ArtefactError)
     block = block_factor(protocol.voxel_mm, resolution_mm)
     scene = sensor_scene(design, medium, resolution_mm, margin_mm, block, body_material)
     field = field_offset_ppm(scene.delta_chi_ppm, resolution_mm, b, pad_factor, workers)

@@ -58,16 +58,13 @@ def output_names(name: str) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from sensor.artefact.field import b0_unit
-    from sensor.artefact.prediction import PROTOCOL_RULES, Protocol, block_factor
+    from sensor.artefact.prediction import GRID_RULES, PROTOCOL_RULES, Protocol, block_factor
     from sensor.errors import ArtefactError, UsageError
-    from sensor.validation import Number
 
     design = design_from_args(args)
     check_flags(args, {"b0": PROTOCOL_RULES["b0_T"], "te_ms": PROTOCOL_RULES["te_ms"],
                        "bandwidth_hz_per_px": PROTOCOL_RULES["bandwidth_hz_per_px"],
-                       "voxel_mm": PROTOCOL_RULES["voxel_mm"],
-                       "resolution_mm": Number(0.0, 5.0, lo_open=True, unit="mm"),
-                       "margin_mm": Number(5.0, 200.0, unit="mm")})
+                       "voxel_mm": PROTOCOL_RULES["voxel_mm"], **GRID_RULES})
     try:
         b0_unit(args.b0_direction)
         block_factor(args.voxel_mm, args.resolution_mm)

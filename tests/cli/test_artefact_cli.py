@@ -53,7 +53,7 @@ def test_text_output_and_the_output_rule(capsys, tmp_path):
     (["--bandwidth-hz-per-px", "0"], "--bandwidth-hz-per-px = 0.0"),
     (["--voxel-mm", "1.3"], "--voxel-mm = 1.3: must be a whole multiple of the field --resolution-mm = 1"),
     (["--resolution-mm", "inf"], "--resolution-mm = inf"),
-    (["--margin-mm", "1e308"], "--margin-mm = 1e+308: must be a number in [5, 200] (mm)"),
+    (["--margin-mm", "1e308"], "--margin-mm = 1e+308: must be a number in [10, 200] (mm)"),
     (["--b0-direction", "up"], "--b0-direction = 'up': must be x, y, z or three numbers"),
     (["--b0-direction", "0,0,0"], "--b0-direction = '0,0,0'"),
     (["--medium", "oil"], "invalid choice: 'oil'"),
