@@ -2,8 +2,11 @@
 readout shift and the gradient-echo signal loss (ASTM F2119's 30 % criterion).
 
 - Field offset at 1, 2 and 5 mm from the sensor's surface: the largest |ΔB| on the shell
-  of voxels at that distance (Euclidean distance transform of the solid voxels), in ppm and
-  in Hz at B0 (:func:`sensor.artefact.field.offset_hz`).
+  of voxels at that distance beyond the body's convex hull (where tissue can be; the
+  mechanism's own openings are left out), in ppm and in Hz at B0
+  (:func:`sensor.artefact.field.offset_hz`).
+  Distances are those of voxel centres from the nearest voxel the sensor touches (Euclidean
+  distance transform) less half a voxel: the distance from the surface within half a voxel.
 - Spin echo: a resonance offset Δf shifts a voxel along the readout by Δf / (bandwidth per
   pixel) pixels.
 - Gradient echo: each image voxel (``voxel_mm``, a whole number of field voxels) holds
@@ -105,7 +108,7 @@ class Artefact:
         h = self.scene.grid.voxel_mm
         rows = []
         for d in SURFACE_DISTANCES_MM:
-            shell = np.abs(self.distance_mm - d) <= h / 2.0
+            shell = (np.abs(self.distance_mm - d) <= h / 2.0) & self.scene.beyond_hull
             ppm = float(np.max(np.abs(self.field_ppm[shell]))) if shell.any() else math.nan
             hz = float(offset_hz(ppm, self.protocol.b0_T))
             rows.append({"distance_mm": d, "ppm": ppm, "hz": hz,
@@ -187,9 +190,9 @@ def predict(design: Design, protocol: Protocol = Protocol(), medium: str = "wate
     block = block_factor(protocol.voxel_mm, resolution_mm)
     scene = sensor_scene(design, medium, resolution_mm, margin_mm, block, body_material)
     field = field_offset_ppm(scene.delta_chi_ppm, resolution_mm, b, pad_factor, workers)
-    solid = scene.solid >= _INSIDE
-    distance = ndimage.distance_transform_edt(~solid, sampling=resolution_mm).astype(np.float32)
-    distance = np.where(solid, 0.0, distance - resolution_mm / 2.0).astype(np.float32)
+    touched = scene.solid > 0.0  # voxels holding any of the sensor: its surface runs through them
+    distance = ndimage.distance_transform_edt(~touched, sampling=resolution_mm).astype(np.float32)
+    distance = np.where(touched, 0.0, distance - resolution_mm / 2.0).astype(np.float32)
     water = 1.0 - scene.solid
     magnitude = gradient_echo_magnitude(field, water, resolution_mm, block, protocol.b0_T, protocol.te_ms)
     if medium == "air":  # no signal in air: the loss of the dephasing alone (0 in the sensor)

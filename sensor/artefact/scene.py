@@ -57,11 +57,13 @@ class SolidPart:
 @dataclass(frozen=True)
 class Scene:
     """The voxelised sensor: ``chi_ppm`` (absolute, SI ppm) and ``solid`` (the fraction of
-    each voxel that is sensor, not medium), both float32 on ``grid``."""
+    each voxel that is sensor, not medium), both float32 on ``grid``, and ``beyond_hull``,
+    the voxels wholly outside the body's convex hull (not in the mechanism's openings)."""
 
     grid: Grid
     chi_ppm: np.ndarray
     solid: np.ndarray
+    beyond_hull: np.ndarray
     medium: str
     chi_medium_ppm: float
     parts: tuple[tuple[str, float], ...]
@@ -114,5 +116,6 @@ def sensor_scene(design: Design, medium: str = "water", resolution_mm: float = R
     chi = np.float32(chi_m) * (1.0 - solid)
     for p in parts:
         chi += np.float32(p.chi_ppm) * (body_frac if p.name == "body" else frac[p.name])
-    return Scene(grid, chi.astype(np.float32), solid.astype(np.float32), medium, chi_m,
+    beyond_hull = occupancy(body.convex_hull, grid) == 0.0
+    return Scene(grid, chi.astype(np.float32), solid.astype(np.float32), beyond_hull, medium, chi_m,
                  tuple((p.name, p.chi_ppm) for p in parts))
