@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from geometry.checks import assert_feasible
 from geometry.export import checked_mesh
 from geometry.layout import make_layout
 from geometry.params import Design
@@ -105,6 +106,7 @@ def sensor_scene(design: Design, medium: str = "water", resolution_mm: float = R
     every side (each side a whole number of ``multiple`` voxels, for image blocks)."""
     if medium not in MEDIA:
         raise ArtefactError(f"medium = {medium!r}: must be one of {', '.join(MEDIA)}")
+    assert_feasible(design)  # a body that cannot be cut has no artefact to predict
     body = checked_mesh(design)
     grid = grid_around(body.bounds, margin_mm, resolution_mm, multiple)
     parts = sensor_parts(design, grid.lower_mm[1] - 2.0 * resolution_mm, body_material)

@@ -83,14 +83,14 @@ def run(args: argparse.Namespace) -> int:
         summary = {**a.summary(), "files": [str(p) for p in paths]}
         step("figures")
         figures = (field_figure(a), image_figure(a))
+        maps = artefact_dataset(a)  # everything is built before the first file is written
         make_out_dir(args.out)
         with atomic_path(paths[0]) as tmp:
             tmp.write_text(json.dumps(summary, indent=1) + "\n")
         for fig, path in zip(figures, paths[1:3]):
             save_figure(fig, path, dpi=110)
-        step("maps")
         with atomic_path(paths[3]) as tmp:
-            write_dataset(artefact_dataset(a), tmp)
+            write_dataset(maps, tmp)
     if args.json:
         print(json.dumps(summary, indent=1))
         return 0

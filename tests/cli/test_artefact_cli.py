@@ -70,3 +70,10 @@ def test_bad_input_is_one_line_and_writes_nothing(capsys, tmp_path, bad, fragmen
     assert_one_line_error(status, err, "artefact")
     assert fragment in err, err
     assert not out.exists()
+
+
+def test_an_infeasible_design_is_refused(capsys, tmp_path):
+    out = tmp_path / "out"
+    status = main(["artefact", "--phi1", "22", "--phi2", "80", *QUICK, "--out", str(out)])
+    assert_one_line_error(status, capsys.readouterr().err, "artefact")
+    assert not out.exists()
