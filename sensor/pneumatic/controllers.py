@@ -271,18 +271,19 @@ def line_dynamics(plant) -> LineDynamics:
     return LineDynamics(float(math.sqrt(wl2)), float(f), float(wl2 / f), plant.air.speed_of_sound, max(model.line_length_m))
 
 
-def smc_gains(plant) -> dict:
+def smc_gains(plant, slope_fraction: float = SMC_SLOPE_FRACTION) -> dict:
     """SMC gains for the plant's lines: the boundary-layer slope eta/phi (the rate of s' =
     -(eta/phi) s inside the layer, 1/s) is w_L/7, a margin below the lightly damped line mode the
     standard model ignores; phi = 20 N, lambda = 2 /s.  Measured on the distributed 20-segment
     plant, Enfield valve: w_L/4 and w_L/5 limit-cycle after a 24 N step at 7.25 and 10 m
-    (force-error lines of 1.5-2.4 N above 2.5 Hz), w_L/7 does not (below 0.05 N)."""
+    (force-error lines of 1.5-2.4 N above 2.5 Hz), w_L/7 does not (below 0.05 N).
+    ``slope_fraction``: another eta/phi / w_L (the tuning search of :mod:`.tuning`)."""
     ld = line_dynamics(plant)
-    slope = SMC_SLOPE_FRACTION * ld.natural_rad_s
+    slope = slope_fraction * ld.natural_rad_s
     return {"lam_per_s": SMC_LAMBDA_PER_S, "eta_N_s": slope * SMC_PHI_N, "phi_N": SMC_PHI_N}
 
 
-def line_model_gains(plant, variant: str = "thesis") -> dict:
+def line_model_gains(plant, variant: str = "thesis", outer_fraction: float = OUTER_RATE_FRACTION) -> dict:
     """Line-model controller gains for the plant's lines (section 5.4.2: inner loop first, one
     inner gain set for all lengths; outer loop per length).  The thesis gives no numbers, only
     the procedure; these rules stand in for its hand tuning.
@@ -301,11 +302,12 @@ def line_model_gains(plant, variant: str = "thesis") -> dict:
       damped.
     * k_p1 = (0.75 w_L - lambda) / h_bar (>= 0), lambda = 10 /s: the nominal outer-loop rate
       lambda + h_bar k_p1 (eq 71) is three quarters of the line mode, so the outer loop stays
-      below the line it drives (h_bar at 2 m is 19 times that at 10 m)."""
+      below the line it drives (h_bar at 2 m is 19 times that at 10 m); ``outer_fraction``
+      another fraction (the tuning search of :mod:`.tuning`, inner loop held)."""
     if variant not in ("thesis", "damped"):
         raise SensorInputError(f"line-model gain variant = {variant!r}: must be thesis or damped")
     ld = line_dynamics(plant)
-    kp1 = max(0.0, (OUTER_RATE_FRACTION * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
+    kp1 = max(0.0, (outer_fraction * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
     kp2 = 2 * INNER_SAMPLE_GAIN * ld.speed_of_sound_m_s / max(ld.length_m, INNER_DESIGN_LENGTH_M)
     km = 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s if variant == "damped" else 0.0
     return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2, "ki2_per_s2": kp2 * kp2 / 4,

@@ -7,7 +7,8 @@ import pytest
 
 from sensor.cli import main
 from sensor.errors import SensorError
-from sensor.pneumatic.studies import DacmForceSensor, Setup, run
+from sensor.pneumatic.dacm_sensor import DacmForceSensor
+from sensor.pneumatic.experiment import Setup, run
 
 FAST = ["--line-length", "1", "--segments", "4", "--duration", "2"]
 
@@ -69,7 +70,7 @@ def test_dacm_sensor_in_the_loop_reads_the_contact_force():
     # the hysteresis band (half the loop height, 2.5 % of the range) plus noise of the true force.
     fs = DacmForceSensor("sample-a-as-cut")
     from sensor.pneumatic.cylinder import spring_contact
-    from sensor.pneumatic.studies import series_spring
+    from sensor.pneumatic.dacm_sensor import series_spring
     s = Setup(reference="sine:1Hz", amplitude_N=0.35 * fs.range_N, offset_N=0.5 * fs.range_N, line_length_m=1.0,
               segments=4, duration_s=2.0, force_sensor=fs,
               environment=spring_contact(series_spring(2000.0, fs.stiffness_N_m), 0.025))
@@ -92,16 +93,18 @@ def test_loop_with_a_dacm_sensor_picks_a_reference_within_its_range(capsys):
 
 
 def test_progress_only_on_a_terminal_and_never_with_quiet(monkeypatch, capsys):
-    from sensor.pneumatic.studies import console_progress
-    with console_progress("study") as progress:          # pytest's stderr is not a terminal
-        assert progress is None
+    from sensor.cli.progress import counting
+    with counting("study") as progress:          # pytest's stderr is not a terminal: nothing drawn
+        progress(1, 2, "smc sine:1Hz 5 m")
+    assert capsys.readouterr() == ("", "")
     monkeypatch.setattr("sys.stderr.isatty", lambda: True)
-    with console_progress("study", quiet=True) as progress:
-        assert progress is None
-    with console_progress("study") as progress:
+    with counting("study", quiet=True) as progress:
+        progress(1, 2, "smc sine:1Hz 5 m")
+    assert capsys.readouterr() == ("", "")
+    with counting("study") as progress:
         progress(1, 2, "smc sine:1Hz 5 m")
         progress(2, 2, "smc sine:2Hz 5 m")
-    assert capsys.readouterr().out == ""                 # the bar goes to stderr only
+    assert capsys.readouterr().out == ""                 # the display goes to stderr only
 
 
 def test_default_duration_settles(capsys):
