@@ -54,9 +54,11 @@ NU_TOL = 0.01   # relative viscosity change that triggers new relaxation factors
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
 # offsets off[s, ...]
 O_P, O_M, O_Y, O_W = 0, 1, 2, 3
-# accumulators acc[...] of one control period
-A_VALVE, A_CHAMBER, A_FORCE, A_MACH = 0, 2, 4, 5
-N_ACC = 7
+# accumulators acc[...] of one control period (two sides each but the force): valve and chamber
+# mass, environment force, largest element Mach, largest exit-face Mach, choked (1) or not, and
+# the element of the largest Mach
+A_VALVE, A_CHAMBER, A_FORCE, A_MACH, A_EXIT, A_CHOKED, A_ELEMENT = 0, 2, 4, 5, 7, 9, 11
+N_ACC = 13
 
 
 @njit(cache=True)
@@ -139,13 +141,62 @@ def end_thrust(m, p, area, rt):
 
 
 @njit(cache=True)
-def face_thrusts(x, op, om, nn, area, rt, phi):
+def entrance_choked(sonic, p0, gam):
+    """Whether a node at stagnation pressure p0 cannot feed a tube face at its isothermal sonic
+    pressure ``sonic``: p0 <= sonic (1 + (gamma - 1) / (2 gamma))^(gamma / (gamma - 1)) (the
+    isentropic relation of :func:`entrance_pressure` at M = 1 / sqrt(gamma))."""
+    return p0 <= sonic * (1.0 + 0.5 * (gam - 1.0) / gam) ** (gam / (gam - 1.0))
+
+
+@njit(cache=True)
+def entrance_pressure(m, p0, area, rt, gam):
+    """Static pressure (Pa) of the tube face a flow |m| (kg/s) enters from a node at stagnation
+    pressure p0: isentropic, p0 = p (1 + (gamma - 1)/2 M^2)^(gamma/(gamma - 1)), with the face Mach
+    M = |m| R T / (A p sqrt(gamma R T)) at the line temperature (the convention of an isothermal
+    line; Shapiro 1953, ch. 4 and 6).  Newton from p0 (the residual is increasing and convex above
+    the isothermal sonic pressure |m| sqrt(R T) / A); a flow the node cannot feed at that face
+    (the entrance chokes) gets the sonic pressure."""
+    g = abs(m) / area
+    if g == 0.0:
+        return p0
+    a = 0.5 * (gam - 1.0) / gam * g * g * rt
+    k = gam / (gam - 1.0)
+    sonic = g * math.sqrt(rt)
+    if entrance_choked(sonic, p0, gam):
+        return sonic
+    p = p0
+    for _ in range(30):
+        q = a / (p * p)
+        base = 1.0 + q
+        f = p * base**k - p0
+        df = base ** (k - 1.0) * (1.0 - (2.0 * k - 1.0) * q)
+        step = f / df
+        p -= step
+        if abs(step) <= 1e-12 * p0:
+            break
+    return max(p, sonic)
+
+
+@njit(cache=True)
+def face_pressure(m_out, p_node, area, rt, gam):
+    """Static pressure (Pa) at a tube end face whose flow m_out (kg/s) leaves the node when > 0:
+    the isentropic entrance from the node's stagnation state (:func:`entrance_pressure`); a flow
+    into the node leaves the tube as a jet at the node pressure (the dump loss)."""
+    if m_out > 0.0:
+        return entrance_pressure(m_out, p_node, area, rt, gam)
+    return p_node
+
+
+@njit(cache=True)
+def face_thrusts(x, op, om, nn, area, rt, gam, phi):
     """Thrust (A P + momentum flux, N) at every node face of a segmented tube into phi[:nn].
 
     Interior nodes carry the momentum of the upwind element at the mean node flow (donor cell);
-    the two end faces carry their element's flow at the node density (:func:`end_thrust`)."""
-    phi[0] = end_thrust(x[om], x[op], area, rt)
-    phi[nn - 1] = end_thrust(x[om + nn - 2], x[op + nn - 1], area, rt)
+    the two end faces carry their element's flow at the face pressure (:func:`face_pressure`,
+    :func:`end_thrust`)."""
+    m0, m1 = x[om], x[om + nn - 2]
+    phi[0] = end_thrust(m0, face_pressure(m0, x[op], area, rt, gam), area, rt)
+    phi[nn - 1] = end_thrust(m1, face_pressure(-m1, x[op + nn - 1], area, rt, gam), area, rt)
     for k in range(1, nn - 1):
         ma, mb = x[om + k - 1], x[om + k]
         mean = 0.5 * (ma + mb)
@@ -163,6 +214,21 @@ def element_mach(m, pa, pb, first, last, area, rt, c2):
     if last:
         pb = max(pb, sonic)
     return abs(m) * 2.0 * rt / (area * (pa + pb) * math.sqrt(c2))
+
+
+@njit(cache=True)
+def exit_face(m, sign, p_node, area, rt, c2, gam, acc, s):
+    """Record the Mach number of a tube end face the flow leaves (sign m > 0: element flow m with
+    sign +1 at the chamber end, -1 at the valve end) in acc[A_EXIT + s], and a choked end (the jet
+    at the isothermal sonic speed sqrt(R T), its pressure above the node's, or a choked entrance)
+    in acc[A_CHOKED + s]."""
+    sonic = abs(m) * math.sqrt(rt) / area
+    if sign * m > 0.0:
+        acc[A_EXIT + s] = max(acc[A_EXIT + s], abs(m) * rt / (area * max(p_node, sonic) * math.sqrt(c2)))
+        if sonic > p_node:
+            acc[A_CHOKED + s] = 1.0
+    elif sign * m < 0.0 and entrance_choked(sonic, p_node, gam):
+        acc[A_CHOKED + s] = 1.0
 
 
 @njit(cache=True)
@@ -279,7 +345,7 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
         mv, _ = port_flow(sgn * us, grid, csup, cexh, pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[PATM], pc[KREF])
         resistive = ps[s, S_LAW] == LAW_RESISTIVE
         if ps[s, S_CONVECT] > 0.5 and nn > 1:
-            face_thrusts(x, op, om, nn, ps[s, S_AREA], rt, phi)
+            face_thrusts(x, op, om, nn, ps[s, S_AREA], rt, gam, phi)
         flows = np.empty(max(nn - 1, 1))
         for j in range(nn - 1):
             pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
@@ -450,8 +516,8 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
         us = u if s == 0 else -u
         cond[s, 0] = interp1(us, grid, csup)
         cond[s, 1] = interp1(us, grid, cexh)
-    acc[A_MACH] = 0.0
-    acc[A_MACH + 1] = 0.0
+    for i in range(A_MACH, N_ACC):
+        acc[i] = 0.0
     for _ in range(nsub):
         if spool:
             ua = spool_step(x, u, pc)
@@ -503,7 +569,7 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
             else:
                 convect = ps[s, S_CONVECT] > 0.5
                 if convect:
-                    face_thrusts(x, op, om, nn, area, rt, work[s, :, w0 + 4])
+                    face_thrusts(x, op, om, nn, area, rt, gam, work[s, :, w0 + 4])
                 inert = ps[s, S_INERT]
                 for j in range(nn - 1):
                     pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
@@ -524,9 +590,15 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                         for i in range(kk):
                             x[oy + j * kk + i] = x[oy + j * kk + i] * work[s, j, ef + i] + dmn * work[s, j, pf + i]
             for j in range(nn - 1):
-                mach = max(mach, element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2,
-                                              area, rt, c2))
+                mj = element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2, area, rt, c2)
+                if mj > mach:
+                    mach = mj
+                    if mj > acc[A_MACH + s]:
+                        acc[A_ELEMENT + s] = j
             acc[A_MACH + s] = max(acc[A_MACH + s], mach)
+            if nn > 1 and ps[s, S_CONVECT] > 0.5:
+                exit_face(x[om], -1.0, x[op], area, rt, c2, gam, acc, s)
+                exit_face(x[om + nn - 2], 1.0, x[op + nn - 1], area, rt, c2, gam, acc, s)
             # (3) nodes
             delayed = ps[s, S_ATTEN] > 0.5
             if delayed:
@@ -581,10 +653,11 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
 # sensor kinds of the compiled readings (sens[i, 0], i < 6); sens[i, 1] noise, sens[i, 2] resolution
 # or count; sens[6 + i] = a, b, x_prev, y of the two differentiating filters
 SENSOR_NOISY, SENSOR_ENCODER = 0.0, 1.0
-# columns of the loop's record log[k, ...]: valve flows, chamber flows, peak Mach (two sides each),
-# environment force, command, the eight readings (MEASUREMENT_KEYS order)
-L_VALVE, L_CHAMBER, L_MACH, L_FORCE, L_COMMAND, L_MEAS = 0, 2, 4, 6, 7, 8
-N_LOG = 16
+# columns of the loop's record log[k, ...]: valve flows, chamber flows, peak element Mach, peak
+# exit-face Mach, choked (two sides each), environment force, command, the eight readings
+# (MEASUREMENT_KEYS order)
+L_VALVE, L_CHAMBER, L_MACH, L_EXIT, L_CHOKED, L_FORCE, L_COMMAND, L_MEAS = 0, 2, 4, 6, 8, 10, 11, 12
+N_LOG = 20
 N_HEAD = 6   # blob header: nsub, h, dt, vmax, node slots (pv's columns), valve grid points
 
 
@@ -665,6 +738,8 @@ def control_period(k, u, x, blob, ints, ring, acc, work, states, log, sens, nois
         log[k, L_VALVE + s] = acc[A_VALVE + s] / dt
         log[k, L_CHAMBER + s] = acc[A_CHAMBER + s] / dt
         log[k, L_MACH + s] = acc[A_MACH + s]
+        log[k, L_EXIT + s] = acc[A_EXIT + s]
+        log[k, L_CHOKED + s] = acc[A_CHOKED + s]
         if over < 0 and acc[A_MACH + s] > ps[s, S_MACH_LIMIT]:
             over = s
     states[k + 1] = x

@@ -116,7 +116,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
                 raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
             out = period(k, u, x, blob, ints, ring, acc, work, states, log, sens, noise)
             if out[0] >= 0 or out[1] >= 0:
-                _stop(cp, x, log, ps, k, t + dt, out[0], out[1])
+                _stop(cp, x, log, ps, k, t + dt, out[0], out[1], acc, substep_s is not None)
             if compiled is None:
                 raw = out[2:8]
             else:
@@ -156,13 +156,18 @@ def _compiled_sensors(sensors: Sensors, reads: int, dt: float):
     return sens, noise, noisy
 
 
-def _stop(cp, x, log, ps, k, t, bad, over) -> None:
-    """Raise the error of a run stopped at control period k (time t at its end)."""
+def _stop(cp, x, log, ps, k, t, bad, over, acc, given: bool) -> None:
+    """Raise the error of a run stopped at control period k (time t at its end); ``given``: the
+    substep was the caller's (then it may be the cause), not the automatic one."""
     if over >= 0:
         raise SolverError(f"simulation stopped at t = {t:.6g} s: the side {over + 1} line reached Mach "
-                          f"{log[k, K.L_MACH + over]:.3g}, beyond the distributed line's range (subsonic flow up to "
+                          f"{log[k, K.L_MACH + over]:.3g} in flow element {int(acc[K.A_ELEMENT + over])} of "
+                          f"{cp.node_count(over) - 1}, beyond the distributed line's range (subsonic flow up to "
                           f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
-                          f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
+                          f"{1 / math.sqrt(cp.plant.air.gamma):.3f}); cure: "
+                          + ("a smaller substep_s, or the automatic one (substep_s=None)" if given else
+                             "a lower supply pressure, a smaller valve or a larger bore (the flow would be "
+                             "supersonic)"))
     raise SensorInputError(f"simulation stopped at t = {t:.6g} s: state {cp.labels[bad]} = "
                            f"{float(x[bad])!r} is not finite or outside its physical range")
 
@@ -184,7 +189,8 @@ def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
 
 def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
     cols = np.ascontiguousarray(log.T)   # one row per logged quantity
-    valve_flow, chamber_flow, mach = (cols[j:j + 2].T for j in (K.L_VALVE, K.L_CHAMBER, K.L_MACH))
+    valve_flow, chamber_flow, mach, exit_mach, choked = (cols[j:j + 2].T for j in (
+        K.L_VALVE, K.L_CHAMBER, K.L_MACH, K.L_EXIT, K.L_CHOKED))
     force, commands = cols[K.L_FORCE], cols[K.L_COMMAND]
     time = np.arange(states.shape[0]) * dt
     side = [1, 2]
@@ -200,8 +206,14 @@ def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
             "chamber_mass_flow": (("time", "side"), chamber_flow,
                                   {"units": "kg/s", "note": "line into chamber, mean over the period"}),
             "line_max_mach": (("time", "side"), mach,
-                              {"units": "1", "note": "largest Mach number of the line's flow elements "
+                              {"units": "1", "note": "largest mean Mach number of the line's flow elements "
                                                      "over the period (0 without flow elements)"}),
+            "line_exit_mach": (("time", "side"), exit_mach,
+                               {"units": "1", "note": "largest Mach number of a tube end face the flow leaves "
+                                                      "by, over the period (at most 1/sqrt(gamma), isothermal)"}),
+            "line_choked": (("time", "side"), choked > 0.5,
+                            {"note": "an end face of the line was choked during the period (exit jet at the "
+                                     "isothermal sonic speed, or an entrance the node cannot feed)"}),
             "chamber_temperature": (("time", "side"), _temperatures(cp, states), {"units": "K"}),
             "spool_position": ("time", states[:, int(cp.pc[K.OX]) + K.X_SPOOL],
                                {"units": "1", "note": "the command itself for an ideal spool"}),
