@@ -38,9 +38,8 @@ ESTIMATORS = {"force": "observer", "standard": "open_loop", "valve": "valve_port
 ESTIMATOR_HEADINGS = {"observer": "observer", "open_loop": "open loop (standard model)",
                       "valve_ports": "valve ports"}
 #: Plant substep of the observer study's SMC runs (s): the valve-port baseline under SMC converges
-#: slowly with the substep (the switching law's fast content at the port; 0.5 Hz: 2.28 kPa^2 at
-#: 0.1 ms against 1.72 at 10 us before the entrance loss), so these runs take 20 us, which agrees
-#: with a 10 us run within 5 % (tests/pneumatic/test_studies.py measures it).
+#: slowly with the substep (the switching law's fast content at the port; 0.5 Hz: 2.24 kPa^2 at
+#: 0.1 ms, 1.73 at 20 us, 1.66 at 10 us, measured), so these runs take 20 us, within 5 % of 10 us.
 SMC_SUBSTEP_S = 2.0e-5
 ROW_KEYS = ("status", "settled", "limit_cycle", "limit_cycle_hz", "limit_cycle_amplitude_N")
 
