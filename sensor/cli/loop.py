@@ -70,12 +70,11 @@ def register(subparsers) -> None:
 
 def _setup(args):
     from sensor.pneumatic.controllers import CONTROLLERS, MAX_REFERENCE_N
-    from sensor.pneumatic.cylinder import spring_contact
-    from sensor.pneumatic.lines import MAX_LENGTH_M
-    from sensor.pneumatic.observer import OBSERVER_KINDS
-    from sensor.pneumatic.cylinder import Cylinder
+    from sensor.pneumatic.cylinder import Cylinder, spring_contact
     from sensor.pneumatic.dacm_sensor import DacmForceSensor, sensor_reference, series_spring
     from sensor.pneumatic.experiment import Setup, settling_duration_s
+    from sensor.pneumatic.lines import MAX_LENGTH_M
+    from sensor.pneumatic.observer import OBSERVER_KINDS
 
     if args.controller not in CONTROLLERS:
         raise SensorInputError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")
@@ -136,6 +135,13 @@ def run(args) -> int:
     if args.duration is not None and not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
         raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number <= "
                                f"{MAX_DURATION_S:g} (s)")
+    from sensor.pneumatic.cylinder import Cylinder
+
+    physics = _physics(args, Cylinder.coulomb_N)
+    if args.study and (physics["stiction_N"] or args.coulomb is not None or physics["energy"]
+                       or math.isfinite(physics["spool_bandwidth_Hz"])):
+        raise SensorInputError("--stiction, --coulomb, --spool-bandwidth and --energy: apply to a single run, not "
+                               "to --study (--study plant-physics varies them itself)")
     if not args.no_plots or args.study:
         names = ([f"loop-{args.study}.md", *(p.name for p in args.out.glob(f"loop-{args.study}*.png"))]
                  if args.study else ["loop.png"])

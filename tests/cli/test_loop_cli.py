@@ -39,6 +39,22 @@ def test_line_model_json_has_the_virtual_input_mse(capsys):
     assert out["line_model_pressure_mse_kPa2"] < out["pressure_mse_kPa2"]     # Figure 37's claim
 
 
+def test_friction_spool_and_energy_flags_reach_the_plant(capsys):
+    # the thesis' 0.25 N stiction, a 100 Hz spool and the energy equation: the JSON echoes them,
+    # and the plant built from the same Setup carries them (stick-slip on, spool first order at
+    # 2 pi 100 rad/s, energy equation with the stated wall conductance)
+    from sensor.pneumatic.experiment import ENERGY_WALL_W_K, build_plant
+    assert main(["loop", *FAST, "--stiction", "0.25", "--coulomb", "0.1", "--spool-bandwidth", "100", "--energy",
+                 "--json", "--no-plots"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["stiction_N"], out["coulomb_N"], out["spool_bandwidth_Hz"], out["energy"]) == (0.25, 0.1, 100.0, True)
+    pc = build_plant(Setup(stiction_N=0.25, coulomb_N=0.1, spool_bandwidth_Hz=100.0, energy=True)).compile().pc[0]
+    assert pc["stick"] and pc["static_friction"] == 0.25 and pc["coulomb"] == 0.1
+    assert pc["spool_order"] == 1 and pc["spool_w"] == pytest.approx(2 * math.pi * 100.0)
+    assert pc["energy"] and list(pc["wall_ha"]) == [ENERGY_WALL_W_K, ENERGY_WALL_W_K]
+    assert math.isfinite(out["force_mse_N2"]) and out["status"] in ("settled", "limit_cycle", "unsettled")
+
+
 @pytest.mark.parametrize("flag,value,needle", [("--controller", "pid", "--controller 'pid'"),
                                                ("--observer", "kalman", "--observer 'kalman'"),
                                                ("--study", "chapter9", "--study 'chapter9'"),
