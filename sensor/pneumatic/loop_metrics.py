@@ -184,7 +184,8 @@ def classify(ds: xr.Dataset, reference: Reference, errors: dict | None = None) -
     else:
         freq = reference.frequency_Hz
         cycles = max(4, math.ceil(LC_WINDOW_S * freq - 1e-9))
-        start = float(t[-1]) - cycles / freq
+        whole = math.floor((float(t[-1]) - float(t[0])) * freq + 1e-9)   # whole cycles in the run
+        start = float(t[-1]) - min(cycles, whole) / freq
     sel = (t >= start - 1e-9) & np.isfinite(e)
     lc = {"limit_cycle": False}
     if np.count_nonzero(sel) >= 64 and (freq is None or t[-1] - start >= 2 / freq - 1e-9):
