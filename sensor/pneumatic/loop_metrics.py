@@ -6,9 +6,11 @@ pressure-estimation MSE of eq 44 over the steady window (the last whole cycles c
 seconds; the two seconds from a step, thesis section 5.4.2), and the run's status by
 :func:`classify`:
 
-* ``limit_cycle``: over the last :data:`LC_WINDOW_S` seconds (whole reference cycles) the force
-  error, less its part periodic with the reference (the cycle-synchronous mean; a step run: its
-  mean), is a sustained oscillation at a frequency that is no harmonic of the reference: its
+* ``limit_cycle``: over the last :data:`LC_WINDOW_S` seconds (at least :data:`LC_CYCLES` whole
+  reference cycles) the force error, less its part periodic with the reference (the
+  cycle-synchronous mean, which averages an oscillation not locked to the reference out; a step
+  run: its mean), is a sustained oscillation at a frequency that is no harmonic of the reference
+  (farther than half the window's resolution, 1/(2 T), from every one): its
   fundamental (least-squares sine at the periodogram peak) has an amplitude of at least
   :data:`LC_MIN_AMPLITUDE` of the reference amplitude, it and its second and third harmonics hold
   at least :data:`LC_CONCENTRATION` of that residual's power, and its amplitude in the two halves
@@ -38,15 +40,15 @@ SETTLE_CHANGE = 0.10     # relative bound between the two blocks' mean per-cycle
 SETTLE_FLOOR = {"N2": 1e-3, "kPa2": 0.05}   # ~ the sensors' noise: (0.02 N)^2 x 2.5, (0.2 kPa)^2 + 25 %
 STEP_SETTLE_FRACTION = 0.05
 STEP_SETTLE_S = 0.2
-LC_WINDOW_S = 10.0          # the end of the run searched for a limit cycle (at least 4 whole cycles)
+LC_WINDOW_S = 10.0          # the end of the run searched for a limit cycle (at least LC_CYCLES whole cycles)
+LC_CYCLES = 10              # ... so that the cycle-synchronous mean averages an unlocked oscillation out
 LC_MIN_AMPLITUDE = 0.05     # fundamental amplitude / reference amplitude (1.2 N at 24 N)
 LC_CONCENTRATION = 0.5      # power of the fundamental and 2 harmonics / power of the non-synchronous error
 LC_STEADY = 0.25            # |amplitude, second half / first half - 1|
-LC_HARMONIC_TOL = 0.03      # a frequency within 3 % of a reference harmonic is that harmonic
 STATUSES = ("settled", "limit_cycle", "unsettled")
-SETTLING_RULE = (f"limit_cycle: over the last {LC_WINDOW_S:g} s the force error less its reference-periodic part "
-                 f"oscillates at a frequency that is no reference harmonic, fundamental >= {LC_MIN_AMPLITUDE:.0%} of "
-                 f"the reference amplitude, holding >= {LC_CONCENTRATION:.0%} of that error's power with 2 harmonics, "
+SETTLING_RULE = (f"limit_cycle: over the last {LC_WINDOW_S:g} s (at least {LC_CYCLES} cycles) the force error "
+                 f"less its cycle-synchronous mean oscillates at a frequency that is no reference harmonic, fundamental "
+                 f">= {LC_MIN_AMPLITUDE:.0%} of the reference amplitude, holding >= {LC_CONCENTRATION:.0%} of that error's power with 2 harmonics, "
                  f"its amplitude steady within {LC_STEADY:.0%} between the halves; otherwise settled - periodic: the "
                  f"per-cycle MSE of the force, the estimate's pressure and (line model) the virtual input and its "
                  f"pressure, averaged over the last {SETTLE_CYCLES} cycles and the {SETTLE_CYCLES} before, agree "
@@ -129,9 +131,6 @@ def limit_cycle(t: np.ndarray, e: np.ndarray, frequency_Hz: float | None, amplit
     freqs = np.fft.rfftfreq(8 * r.size, dt)
     lo = 2.0 / (t[-1] - t[0])                    # at least two periods in the window
     spec[freqs < lo] = 0.0
-    if frequency_Hz:                             # the reference harmonics are not a limit cycle
-        k = np.round(freqs / frequency_Hz)
-        spec[(k >= 1) & (np.abs(freqs - k * frequency_Hz) <= LC_HARMONIC_TOL * k * frequency_Hz)] = 0.0
     peak = float(freqs[int(np.argmax(spec))])
     fine = np.linspace(peak - 0.5 * lo, peak + 0.5 * lo, 41)
     hz = float(fine[int(np.argmax([_sine_fit(t, r, f) for f in fine]))])
@@ -141,8 +140,9 @@ def limit_cycle(t: np.ndarray, e: np.ndarray, frequency_Hz: float | None, amplit
     half = r.size // 2
     halves = [_sine_fit(t[:half], r[:half], hz), _sine_fit(t[half:], r[half:], hz)]
     steady = halves[0] > 0 and abs(halves[1] / halves[0] - 1) <= LC_STEADY
-    harmonic = bool(frequency_Hz) and abs(hz / frequency_Hz - round(hz / frequency_Hz)) * frequency_Hz \
-        <= LC_HARMONIC_TOL * hz
+    # within half the window's frequency resolution (1/(2 T)) of a reference harmonic the cycle-synchronous mean
+    # cannot tell a limit cycle from tracking error: not named a limit cycle
+    harmonic = bool(frequency_Hz) and abs(hz - round(hz / frequency_Hz) * frequency_Hz) <= 0.25 * lo
     found = (hz > 0 and not harmonic and amp >= LC_MIN_AMPLITUDE * abs(amplitude_N)
              and harmonics >= LC_CONCENTRATION * power and steady)
     return {"limit_cycle": bool(found), "hz": hz, "amplitude_N": amp,
@@ -183,7 +183,7 @@ def classify(ds: xr.Dataset, reference: Reference, errors: dict | None = None) -
         freq = None
     else:
         freq = reference.frequency_Hz
-        cycles = max(4, math.ceil(LC_WINDOW_S * freq - 1e-9))
+        cycles = max(LC_CYCLES, math.ceil(LC_WINDOW_S * freq - 1e-9))
         whole = math.floor((float(t[-1]) - float(t[0])) * freq + 1e-9)   # whole cycles in the run
         start = float(t[-1]) - min(cycles, whole) / freq
     sel = (t >= start - 1e-9) & np.isfinite(e)
