@@ -162,7 +162,7 @@ def _run_one(args) -> dict:
     from geometry.atomic import save_figure
     from sensor.pneumatic.plots import loop_figure
     from sensor.pneumatic.experiment import run as run_experiment
-    from sensor.pneumatic.loop_metrics import metrics, status_text
+    from sensor.pneumatic.loop_metrics import metrics
 
     setup, notes = _setup(args)
     for note in notes:
@@ -185,7 +185,7 @@ def _run_one(args) -> dict:
         if result["gains"]:
             print("  gains (section 5.4.2, from the line): " + ", ".join(f"{k} {v:.4g}" for k, v in result["gains"].items()))
         print(f"  force-control MSE         {m['force_mse_N2']:10.3f} N^2   (window {m['window_s'][0]:.2f}-"
-              f"{m['window_s'][1]:.2f} s, settled: {status_text(m) if not m['status'] == 'unsettled' else 'NO, run longer'})")
+              f"{m['window_s'][1]:.2f} s, {_status_line(m)})")
         print(f"  pressure MSE (eq 44)      {m['pressure_mse_kPa2']:10.2f} kPa^2 ({setup.observer} estimate)")
         print(f"  valve-port pressure MSE   {m['valve_pressure_mse_kPa2']:10.2f} kPa^2")
         if "virtual_input_mse_N2" in m:
@@ -194,6 +194,14 @@ def _run_one(args) -> dict:
         if "plot" in result:
             print(f"  wrote {result['plot']}")
     return result
+
+
+def _status_line(m: dict) -> str:
+    """The run's status for the console: settled, the limit cycle with its frequency and
+    amplitude, or unsettled with the advice."""
+    if m["limit_cycle"]:
+        return f"limit cycle at {m['limit_cycle_hz']:.3g} Hz, amplitude {m['limit_cycle_amplitude_N']:.3g} N"
+    return "settled" if m["settled"] else "NOT settled, run longer"
 
 
 def _run_study(args) -> dict:
