@@ -189,7 +189,7 @@ def check_capacity(setup: Setup, model: ObserverModel) -> list[str]:
     msgs = []
     if rhi > hi or rlo < lo:
         msgs.append(f"reference spans [{rlo:.4g}, {rhi:.4g}] N: beyond the actuator's force capacity "
-                    f"[{lo:.4g}, {hi:.4g}] N (supply {model.q[2] / 1e5:.3g} bar abs, eq 17)")
+                    f"[{lo:.4g}, {hi:.4g}] N (supply {model.params['p_supply'] / 1e5:.3g} bar abs, eq 17)")
     rng = getattr(setup.force_sensor, "range_N", None)
     if rng is not None and (rlo < 0 or rhi > rng):
         msgs.append(f"reference spans [{rlo:.4g}, {rhi:.4g}] N: beyond the force sensor's range [0, {rng:.4g}] N")
@@ -214,7 +214,7 @@ def run(setup: Setup, rate_Hz: float = 1000.0, progress=None) -> xr.Dataset:
     for j, name in enumerate(ctrl.channels):
         ds[name] = ("time", rows[:, j])
     z = ds.piston_position.values
-    stroke = model.q[9]
+    stroke = model.params["stroke"]
     if np.any(z < 0) or np.any(z > stroke):
         warnings.warn(f"the piston reached an end stop (z from {z.min() * 1e3:.3g} to {z.max() * 1e3:.3g} mm, "
                       f"stroke {stroke * 1e3:.3g} mm): eq 18 then misses the stop force", CapacityWarning,

@@ -20,18 +20,16 @@ from sensor.pneumatic.controllers import (
     smc_gains,
     valve_inverse,
 )
+from sensor.pneumatic.experiment import LOOP_SUBSTEP_S, Setup, build_plant, run
 from sensor.pneumatic.lines import DeadVolume
+from sensor.pneumatic.loop_metrics import metrics
+from sensor.pneumatic.observer import MODEL as MODEL_DTYPE
 from sensor.pneumatic.observer import (
-    Q_A1,
-    Q_A2,
-    Q_RT,
     ObserverModel,
     PressureObserver,
     volumes,
 )
 from sensor.pneumatic.plant import Plant
-from sensor.pneumatic.experiment import LOOP_SUBSTEP_S, Setup, build_plant, run
-from sensor.pneumatic.loop_metrics import metrics
 from sensor.pneumatic.valve import ENFIELD_LH05, FESTO_MPYE
 
 
@@ -90,9 +88,9 @@ def test_smc_equivalent_conductance_gives_the_requested_force_rate():
         v1, v2 = volumes(z, q)
         m1 = plant.valve.mass_flow(u, plant.supply_Pa, p1, 1)
         m2 = plant.valve.mass_flow(u, plant.supply_Pa, p2, 2)
-        dp1 = (m1 * q[Q_RT] - p1 * q[Q_A1] * v) / v1
-        dp2 = (m2 * q[Q_RT] + p2 * q[Q_A2] * v) / v2
-        assert q[Q_A1] * dp1 - q[Q_A2] * dp2 == pytest.approx(rate, rel=1e-9, abs=1e-6)
+        dp1 = (m1 * q.view(MODEL_DTYPE)[0]["rt"] - p1 * q.view(MODEL_DTYPE)[0]["area_1"] * v) / v1
+        dp2 = (m2 * q.view(MODEL_DTYPE)[0]["rt"] + p2 * q.view(MODEL_DTYPE)[0]["area_2"] * v) / v2
+        assert q.view(MODEL_DTYPE)[0]["area_1"] * dp1 - q.view(MODEL_DTYPE)[0]["area_2"] * dp2 == pytest.approx(rate, rel=1e-9, abs=1e-6)
         checked += 1
     assert checked > 100
 

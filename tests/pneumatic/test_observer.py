@@ -8,15 +8,8 @@ from scipy.integrate import solve_ivp
 from sensor.errors import SensorError
 from sensor.pneumatic.cylinder import Cylinder, mass_spring_damper
 from sensor.pneumatic.lines import DeadVolume
+from sensor.pneumatic.observer import MODEL as MODEL_DTYPE
 from sensor.pneumatic.observer import (
-    Q_A1,
-    Q_A2,
-    Q_BCRIT,
-    Q_KREF,
-    Q_PATM,
-    Q_PSUP,
-    Q_RLAM,
-    Q_RT,
     ObserverModel,
     PressureObserver,
     actuator_force,
@@ -35,9 +28,9 @@ MODEL = ObserverModel.from_plant(PLANT)
 
 def _flows(model, u, p1, p2):
     q, args = model.q, (model.grid, model.supply_conductance, model.exhaust_conductance)
-    common = (q[Q_BCRIT], q[Q_RLAM], q[Q_PSUP])
-    m1 = port_flow(u, *args, *common, p1, q[Q_PATM], q[Q_KREF])[0]
-    m2 = port_flow(-u, *args, *common, p2, q[Q_PATM], q[Q_KREF])[0]
+    common = (q.view(MODEL_DTYPE)[0]["b_crit"], q.view(MODEL_DTYPE)[0]["r_lam"], q.view(MODEL_DTYPE)[0]["p_supply"])
+    m1 = port_flow(u, *args, *common, p1, q.view(MODEL_DTYPE)[0]["p_atm"], q.view(MODEL_DTYPE)[0]["k_ref"])[0]
+    m2 = port_flow(-u, *args, *common, p2, q.view(MODEL_DTYPE)[0]["p_atm"], q.view(MODEL_DTYPE)[0]["k_ref"])[0]
     return m1, m2
 
 
@@ -52,7 +45,7 @@ def _coupled(model, z, u, k, delta=lambda t: 0.0):
         m1, m2 = _flows(model, u(t), y[0] / v1, y[1] / v2)
         fp = actuator_force(y[0] / v1, y[1] / v2, q) + delta(t)
         d = observer_rhs(y[2], y[3], u(t), v1, v2, fp, k, q, *args)
-        return [m1 * q[Q_RT], m2 * q[Q_RT], d[0], d[1]]
+        return [m1 * q.view(MODEL_DTYPE)[0]["rt"], m2 * q.view(MODEL_DTYPE)[0]["rt"], d[0], d[1]]
     return rhs
 
 
@@ -83,7 +76,7 @@ def test_correction_term_is_eq34_at_random_states():
         f1, f2 = correction(ph[0], ph[1], v1, v2, actuator_force(p[0], p[1], q), q)
         lhs = k * ((ph[0] - p[0]) * v1 * f1 + (ph[1] - p[1]) * v2 * f2)
         pt = ph - p
-        rhs = -k * (pt[0] * q[Q_A1] - pt[1] * q[Q_A2]) ** 2 / (q[Q_A1] * q[Q_A2])
+        rhs = -k * (pt[0] * q.view(MODEL_DTYPE)[0]["area_1"] - pt[1] * q.view(MODEL_DTYPE)[0]["area_2"]) ** 2 / (q.view(MODEL_DTYPE)[0]["area_1"] * q.view(MODEL_DTYPE)[0]["area_2"])
         assert lhs == pytest.approx(rhs, rel=1e-9, abs=1e-12 * abs(k * pt @ pt))   # round-off only
 
 
@@ -127,7 +120,7 @@ def test_correction_drives_the_force_error_to_the_valley_with_the_valve_shut():
         if k == 0.0:
             assert np.allclose(e, e0, rtol=1e-12)
         else:
-            w = np.array([q[Q_A1] / v1, -q[Q_A2] / v2])
+            w = np.array([q.view(MODEL_DTYPE)[0]["area_1"] / v1, -q.view(MODEL_DTYPE)[0]["area_2"] / v2])
             kept = e0 - w * (w @ e0) / (w @ w)
             # 2 s at a 5 Hz pole: exp(-2 pi 5 * 2) leaves nothing of the decaying part
             assert np.allclose(e, kept, rtol=1e-9, atol=1e-9 * np.abs(e0).max())
