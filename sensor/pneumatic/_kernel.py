@@ -88,8 +88,15 @@ LOOP = np.dtype([("nsub", I8), ("h", F8), ("dt", F8), ("vmax", F8), ("head", I8)
 
 
 def record(dtype: np.dtype, n: int | None = None) -> np.ndarray:
-    """A zeroed record (shape (1,), pass it whole to the kernel) or n records of ``dtype``."""
+    """A zeroed record (shape (1,)) or n records of ``dtype``.  The compiled entry points take
+    them as byte views (:func:`as_bytes`) and read them back with ``.view(DTYPE)``: a plain byte
+    array costs numba's dispatcher far less than a structured one."""
     return np.zeros(1 if n is None else n, dtype)
+
+
+def as_bytes(records: np.ndarray) -> np.ndarray:
+    """The bytes of ``records`` (a view: the kernel writes through it)."""
+    return records.view(np.uint8)
 
 
 @njit(cache=True)
@@ -709,10 +716,12 @@ def sensor_read(value, kind, noise, resolution, draw):
 
 
 @njit(cache=True)
-def read_sensors(k, z, force, p1, p2, p3, p4, sens, filt, noise, log):
+def read_sensors(k, z, force, p1, p2, p3, p4, sens_b, filt_b, noise, log_b):
     """Row k of the readings log[k].meas (MEASUREMENT_KEYS order) from the raw position, force
     and pressures: the six sensors of ``sens`` with the pre-drawn noise[k], and the two
-    DifferentiatingFilter recursions of ``filt`` for velocity and acceleration, started at k = 0."""
+    DifferentiatingFilter recursions of ``filt`` for velocity and acceleration, started at k = 0
+    (the records as byte views, :func:`as_bytes`)."""
+    sens, filt, log = sens_b.view(SENSOR), filt_b.view(FILTER), log_b.view(LOG)
     raw = (z, force, p1, p2, p3, p4)
     meas = log[k].meas
     for i in range(6):
@@ -730,7 +739,7 @@ def read_sensors(k, z, force, p1, p2, p3, p4, sens, filt, noise, log):
 
 
 @njit(cache=True)
-def control_period(k, u, x, loop, pv, table, ring, acc, work, states, log, sens, filt, noise):
+def control_period(k, u, x, loop_b, pv, table, ring, acc_b, work, states, log_b, sens_b, filt_b, noise):
     """One control period of the fixed-rate loop (``loop``: the LOOP record of :func:`pack_loop`;
     ``table``: the valve's command grid and supply and exhaust conductances as rows): clip the
     command u to [-1, 1] into log[k].command, :func:`advance` by nsub substeps, then record row
@@ -739,9 +748,10 @@ def control_period(k, u, x, loop, pv, table, ring, acc, work, states, log, sens,
     readings (:func:`read_sensors`).  Returns (first bad state or -1, first side whose peak Mach
     exceeds its mach_limit or -1, then the eight readings of row k + 1 - or, without compiled
     sensors, the piston position, environment force and the pressures at the state indices
-    p_read, for the Python sensors, and two zeros)."""
-    r = loop[0]
-    a = acc[0]
+    p_read, for the Python sensors, and two zeros).  The records come as byte views (:func:`as_bytes`)."""
+    r = loop_b.view(LOOP)[0]
+    a = acc_b.view(ACC)[0]
+    log, sens = log_b.view(LOG), sens_b.view(SENSOR)
     pc, ps = r.pc, r.ps
     u = min(1.0, max(-1.0, u))
     log[k].command = u
@@ -764,7 +774,7 @@ def control_period(k, u, x, loop, pv, table, ring, acc, work, states, log, sens,
     z, f, p1, p2, p3, p4 = x[0], a.force, x[pr[0]], x[pr[1]], x[pr[2]], x[pr[3]]
     if sens[0].kind < 0.0:
         return (bad, over, z, f, p1, p2, p3, p4, 0.0, 0.0)
-    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens, filt, noise, log)
+    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens_b, filt_b, noise, log_b)
     m = log[k + 1].meas
     return (bad, over, m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7])
 

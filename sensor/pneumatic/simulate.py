@@ -95,11 +95,12 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
         read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
     else:
         sens, filt, noise, noisy = compiled
-        K.read_sensors(0, *raw, sens, filt, noise, log)
+        K.read_sensors(0, *raw, K.as_bytes(sens), K.as_bytes(filt), noise, K.as_bytes(log))
         m = tuple(float(v) for v in log[0]["meas"])
     meas = log["meas"]
     kz, kv, ka, kf, kv1, kv2, kc1, kc2 = MEASUREMENT_KEYS
     period = K.control_period
+    loop_b, acc_b, log_b, sens_b, filt_b = (K.as_bytes(a) for a in (loop, acc, log, sens, filt))
     k = 0
     try:
         for k in range(nsteps + 1):
@@ -118,7 +119,7 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
                                      kc2: m[7]}))
             if not math.isfinite(u):
                 raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
-            out = period(k, u, x, loop, cp.pv, table, ring, acc, work, states, log, sens, filt, noise)
+            out = period(k, u, x, loop_b, cp.pv, table, ring, acc_b, work, states, log_b, sens_b, filt_b, noise)
             if out[0] >= 0 or out[1] >= 0:
                 _stop(cp, x, log, ps, k, t + dt, out[0], out[1], acc, substep_s is not None)
             if compiled is None:
