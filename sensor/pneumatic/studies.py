@@ -53,11 +53,14 @@ def _row(setup: Setup, **extra) -> tuple[dict, xr.Dataset]:
     return out, ds
 
 
-def _run_plan(plan: list[tuple[object, Setup]], progress) -> dict:
-    """Run every (key, setup) of ``plan``; ``progress(done, total, label)`` after each."""
+def _run_plan(plan: list[tuple[object, Setup]], progress, keep=lambda key: True) -> dict:
+    """Run every (key, setup) of ``plan``: {key: (row, dataset or None)}, the dataset kept only
+    where ``keep(key)`` (a 50 s run of the 20-segment plant is ~0.3 GB; a grid cannot hold them
+    all); ``progress(done, total, label)`` after each."""
     done = {}
     for i, (key, setup) in enumerate(plan):
-        done[key] = _row(setup)
+        row, ds = _row(setup)
+        done[key] = (row, ds if keep(key) else None)
         if progress is not None:
             progress(i + 1, len(plan), f"{setup.controller} {setup.reference} {setup.line_length_m:g} m")
     return done
@@ -217,10 +220,10 @@ def controller_study(duration_s: float | None = None, amplitude_N: float = 24.0,
     tuned = tunings(lengths, segments, amplitude_N, progress) if tuned is None else tuned
     plan = [((length, ref, key), _ch5_setup(length, ref, key, tuned, duration_s, amplitude_N, segments))
             for length in lengths for ref in references for key in CH5_CONTROLLERS]
-    done = _run_plan(plan, progress)
-    runs = {k: v[1] for k, v in done.items() if k in set(keep_runs)}
+    done = _run_plan(plan, progress, keep=set(keep_runs).__contains__)
+    runs = {k: v[1] for k, v in done.items() if v[1] is not None}
     return {"rows": _ch5_rows(done, lengths, references, CH5_CONTROLLERS), "tuning": _tuning_summary(tuned),
-            "runs": runs}
+            "tuned": tuned, "runs": runs}
 
 
 def _tuning_summary(tuned: dict) -> dict:
@@ -237,20 +240,27 @@ PLANT_PHYSICS = {"stiction": ({"stiction_N": THESIS_STICTION_N}, f"stiction {THE
 
 def plant_physics_study(duration_s: float | None = None, amplitude_N: float = 24.0, segments: int = 20,
                         lengths=CH5_LENGTHS_M, references=CH5_REFERENCES, progress=None,
-                        tuned: dict | None = None) -> dict:
+                        tuned: dict | None = None, baseline: dict | None = None) -> dict:
     """Chapter V's primary rows (tuned SMC and thesis line model, gains tuned on the baseline
     plant and held) on the baseline plant and with each of :data:`PLANT_PHYSICS`, one at a time.
-    Returns ``variants`` (key -> label), ``rows`` per variant (the controller study's row form,
-    ``baseline`` included) and ``tuning``."""
+    ``tuned`` and ``baseline`` (a :func:`controller_study` result on the same grid, whose primary
+    rows are the baseline) save their runs.  Returns ``variants`` (key -> label), ``rows`` per
+    variant (the controller study's row form, ``baseline`` included) and ``tuning``."""
+    if baseline is not None:
+        tuned = baseline["tuned"]
     tuned = tunings(lengths, segments, amplitude_N, progress) if tuned is None else tuned
     variants = {"baseline": ({}, "baseline plant"), **PLANT_PHYSICS}
     plan = [((name, length, ref, key), _ch5_setup(length, ref, key, tuned, duration_s, amplitude_N, segments,
                                                    **fields))
             for name, (fields, _) in variants.items() for length in lengths for ref in references
-            for key in CH5_PRIMARY]
-    done = _run_plan(plan, progress)
+            for key in CH5_PRIMARY if not (baseline is not None and name == "baseline")]
+    done = _run_plan(plan, progress, keep=lambda key: False)
     rows = {name: _ch5_rows({k[1:]: v for k, v in done.items() if k[0] == name}, lengths, references, CH5_PRIMARY)
-            for name in variants}
+            for name in variants if not (baseline is not None and name == "baseline")}
+    if baseline is not None:
+        rows["baseline"] = [{**{k: v for k, v in r.items() if k not in CH5_CONTROLLERS or k in CH5_PRIMARY},
+                             **status_of([r[k] for k in CH5_PRIMARY])} for r in baseline["rows"]]
+        rows = {"baseline": rows.pop("baseline"), **rows}
     return {"variants": {k: v[1] for k, v in variants.items()}, "rows": rows, "tuning": _tuning_summary(tuned)}
 
 

@@ -30,6 +30,13 @@ def test_plant_physics_study_varies_one_thing_at_a_time(tuned):
 
 def test_controller_tables_print_the_tuning_beside_the_gains(tuned):
     res = controller_study(duration_s=3.0, segments=4, lengths=(5.0,), references=("sine:2Hz",), tuned=tuned)
+    # the plant-physics study can take this study's primary rows as its baseline: the same numbers
+    # as running them again (deterministic runs), fewer runs
+    again = plant_physics_study(duration_s=3.0, segments=4, lengths=(5.0,), references=("sine:2Hz",), tuned=tuned)
+    reused = plant_physics_study(duration_s=3.0, segments=4, lengths=(5.0,), references=("sine:2Hz",), baseline=res)
+    for key in ("smc", "line_model_thesis"):
+        assert reused["rows"]["baseline"][0][key]["mse1_N2"] == again["rows"]["baseline"][0][key]["mse1_N2"]
+        assert reused["rows"]["energy"][0][key]["mse1_N2"] == again["rows"]["energy"][0][key]["mse1_N2"]
     text = controller_tables(res)
     assert "Gains by the thesis' tuning rule" in text and "t_s(2 %)" in text and "overshoot" in text
     assert "Against the thesis, its controllers tuned by its rule (primary)" in text
