@@ -166,9 +166,8 @@ def command_for(conductance, cal_c, cal_u):
 
 
 @njit(cache=True)
-def psi(pu, pd, q):
-    """Flow per unit conductance psi(P_u, P_d) (kg/(s m^3/(s Pa))) of eq 88."""
-    p = q.view(MODEL)[0]
+def psi(pu, pd, p):
+    """Flow per unit conductance psi(P_u, P_d) (kg/(s m^3/(s Pa))) of eq 88; p: a MODEL record."""
     return orifice_flow(1.0, p.b_crit, p.r_lam, pu, pd, p.k_ref)[0]
 
 
@@ -181,17 +180,16 @@ def sat(s, phi):
 
 
 @njit(cache=True)
-def smc_conductance(force_rate_N_s, p1, p2, z, v, q):
+def smc_conductance(force_rate_N_s, p1, p2, z, v, p):
     """Signed conductance that makes the actuator force rise at ``force_rate_N_s`` with chamber
     pressures p1, p2 (eqs 47/51, 53): F_p' = C R T psi_T - A1 P1 V1'/V1 + A2 P2 V2'/V2."""
-    p = q.view(MODEL)[0]
-    v1, v2 = volumes(z, q)
+    v1, v2 = volumes(z, p)
     a1, a2 = p.area_1, p.area_2
     need = force_rate_N_s + a1 * p1 * (a1 * v) / v1 - a2 * p2 * (-a2 * v) / v2
     if need >= 0.0:
-        den = psi(p.p_supply, p1, q) * a1 / v1 + psi(p2, p.p_atm, q) * a2 / v2
+        den = psi(p.p_supply, p1, p) * a1 / v1 + psi(p2, p.p_atm, p) * a2 / v2
     else:
-        den = psi(p1, p.p_atm, q) * a1 / v1 + psi(p.p_supply, p2, q) * a2 / v2
+        den = psi(p1, p.p_atm, p) * a1 / v1 + psi(p.p_supply, p2, p) * a2 / v2
     return need / (p.rt * max(den, 1e-300))
 
 
@@ -204,7 +202,7 @@ def smc_law(fd, fd_rate, p1, p2, force, z, v, acc, integral, lam, eta, phi, dt, 
     e = fd - force
     s = e + lam * integral
     rate = fd_rate + lam * e + eta * sat(s, phi) + p.viscous * acc
-    u = command_for(smc_conductance(rate, p1, p2, z, v, q), cal_c, cal_u)
+    u = command_for(smc_conductance(rate, p1, p2, z, v, p), cal_c, cal_u)
     return u, s, integral + e * dt
 
 
@@ -537,9 +535,9 @@ def line_model_law(st, par, q, cal_c, cal_u, z, v, acc, force, pv1, pv2, fd, fd_
     # eqs 56, 67, 72 with R T: F_V' = R T (A1 (m_v1 - m_c1) / Vh1 - A2 (m_v2 - m_c2) / Vh2)
     target = (fvd_rate + g.kp2 * e2 + g.ki2 * r.w_2) / rt + a1 * mc1 / half1 - a2 * mc2 / half2
     if target >= 0:
-        den = psi(p.p_supply, pv1, q) * a1 / half1 + psi(pv2, p.p_atm, q) * a2 / half2
+        den = psi(p.p_supply, pv1, p) * a1 / half1 + psi(pv2, p.p_atm, p) * a2 / half2
     else:
-        den = psi(pv1, p.p_atm, q) * a1 / half1 + psi(p.p_supply, pv2, q) * a2 / half2
+        den = psi(pv1, p.p_atm, p) * a1 / half1 + psi(p.p_supply, pv2, p) * a2 / half2
     u = command_for(target / max(den, 1e-300), cal_c, cal_u)
     # anti-windup: integrate unless the command is saturated and the error would push it further
     if abs(u) < 1.0 or (u > 0) != (e1 > 0):

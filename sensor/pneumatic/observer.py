@@ -35,8 +35,9 @@ OBSERVER_KINDS = ("force", "standard", "valve")
 #: The standard model's parameters as one named record (SI units): R T, atmosphere, supply, the
 #: valve's b, laminar ratio and k_ref, piston areas, stroke, the volumes V0_i (chamber dead volume
 #: plus nominal line volume), piston mass M and viscous damping B.  All fields are float64, so the
-#: compiled functions take its float view ``q`` (a plain array: cheap to pass from Python) and read
-#: it back by name with ``q.view(MODEL)[0]``.
+#: per-sample entry points (observer_update, the controllers' laws) take its float view ``q`` (a
+#: plain array: cheap to pass from Python), read it back once with ``q.view(MODEL)[0]`` and hand
+#: the record to the functions they call.
 MODEL = np.dtype([(name, np.float64) for name in (
     "rt", "p_atm", "p_supply", "b_crit", "r_lam", "k_ref", "area_1", "area_2", "area_rod", "stroke",
     "volume_1_0", "volume_2_0", "mass", "viscous")])
@@ -89,7 +90,7 @@ class ObserverModel:
 
     def volumes(self, z_m: float) -> tuple[float, float]:
         """Chamber plus line volumes (m^3) at piston position z (eqs 20-21)."""
-        return volumes(z_m, self.q)
+        return volumes(z_m, self.params)
 
     def force_capacity_N(self) -> tuple[float, float]:
         """(lowest, highest) actuator force (N): one chamber at supply, the other at atmosphere
@@ -112,16 +113,14 @@ class ObserverModel:
 
 
 @njit(cache=True)
-def volumes(z, q):
-    """(V_1, V_2) in m^3: chamber plus line volume at position z (eqs 16, 20-21)."""
-    p = q.view(MODEL)[0]
+def volumes(z, p):
+    """(V_1, V_2) in m^3: chamber plus line volume at position z (eqs 16, 20-21); p: a MODEL record."""
     return p.volume_1_0 + p.area_1 * z, p.volume_2_0 + p.area_2 * (p.stroke - z)
 
 
 @njit(cache=True)
-def actuator_force(p1, p2, q):
+def actuator_force(p1, p2, p):
     """F_p = P_1 A_1 - P_2 A_2 - P_atm A_rod in N (eq 17)."""
-    p = q.view(MODEL)[0]
     return p1 * p.area_1 - p2 * p.area_2 - p.p_atm * p.area_rod
 
 
@@ -133,21 +132,19 @@ def measured_actuator_force(force_N, velocity_m_s, acceleration_m_s2, q):
 
 
 @njit(cache=True)
-def correction(p1_hat, p2_hat, v1, v2, fp_measured, q):
+def correction(p1_hat, p2_hat, v1, v2, fp_measured, p):
     """(f_1, f_2) of eqs 23-24 in Pa/m^3; they contain the force error F_hat_p - F_p."""
-    p = q.view(MODEL)[0]
-    err = actuator_force(p1_hat, p2_hat, q) - fp_measured
+    err = actuator_force(p1_hat, p2_hat, p) - fp_measured
     return -err / (v1 * p.area_2), err / (v2 * p.area_1)
 
 
 @njit(cache=True)
-def observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh):
+def observer_rhs(x1, x2, u, v1, v2, fp_measured, k, p, grid, csup, cexh):
     """d(x_hat)/dt of eq 22 (W) and its Jacobian (1/s) as (d1, d2, j11, j12, j21, j22)."""
-    p = q.view(MODEL)[0]
     p1, p2 = x1 / v1, x2 / v2
     m1, dm1 = port_flow(u, grid, csup, cexh, p.b_crit, p.r_lam, p.p_supply, p1, p.p_atm, p.k_ref)
     m2, dm2 = port_flow(-u, grid, csup, cexh, p.b_crit, p.r_lam, p.p_supply, p2, p.p_atm, p.k_ref)
-    f1, f2 = correction(p1, p2, v1, v2, fp_measured, q)
+    f1, f2 = correction(p1, p2, v1, v2, fp_measured, p)
     rt, a1, a2 = p.rt, p.area_1, p.area_2
     c12 = k / (v1 * v2)
     return (m1 * rt + k * f1, m2 * rt + k * f2,
@@ -156,10 +153,10 @@ def observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh):
 
 
 @njit(cache=True)
-def observer_step(x1, x2, u, z, fp_measured, k, h, q, grid, csup, cexh):
+def observer_step(x1, x2, u, z, fp_measured, k, h, p, grid, csup, cexh):
     """One linearly implicit Euler step of h seconds; returns the new (x_hat_1, x_hat_2)."""
-    v1, v2 = volumes(z, q)
-    d1, d2, j11, j12, j21, j22 = observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh)
+    v1, v2 = volumes(z, p)
+    d1, d2, j11, j12, j21, j22 = observer_rhs(x1, x2, u, v1, v2, fp_measured, k, p, grid, csup, cexh)
     a, b, c, d = 1.0 - h * j11, -h * j12, -h * j21, 1.0 - h * j22
     det = a * d - b * c
     return x1 + h * (d * d1 - b * d2) / det, x2 + h * (a * d2 - c * d1) / det
@@ -189,6 +186,7 @@ class PressureObserver:
         if initial_Pa is None:
             initial_Pa = (model.params["p_atm"], model.params["p_atm"])
         self._p0 = tuple(float(p) for p in initial_Pa)
+        self._limit = 100.0 * float(model.params["p_supply"])   # runaway bound on an estimate (Pa)
         self._x: tuple | None = None      # (x_hat_1, x_hat_2, P_hat_1, P_hat_2, F_p) of observer_update
         self.pressures = self._p0
         self.fp_measured = 0.0
@@ -206,7 +204,7 @@ class PressureObserver:
             x[0], x[1], first, u_prev, m["position_m"], m["force_N"], m["velocity_m_s"], m["acceleration_m_s2"],
             self.k if t >= self.gain_on_s else 0.0, self.dt, q, self.model.grid, self.model.supply_conductance,
             self.model.exhaust_conductance)
-        limit = 100.0 * self.model.params["p_supply"]
+        limit = self._limit
         if not (abs(p1) < limit and abs(p2) < limit):       # False for NaN too
             i, p = (1, p1) if not abs(p1) < limit else (2, p2)
             raise SensorInputError(f"observer stopped at t = {t:.6g} s: estimated chamber pressure "
@@ -221,9 +219,10 @@ def observer_update(x1, x2, first, u_prev, z, force_N, velocity_m_s, acceleratio
     x1, x2 are the starting pressures) one :func:`observer_step`.  Returns (x_hat_1, x_hat_2,
     P_hat_1, P_hat_2, F_p)."""
     fp = measured_actuator_force(force_N, velocity_m_s, acceleration_m_s2, q)
-    v1, v2 = volumes(z, q)
+    p = q.view(MODEL)[0]
+    v1, v2 = volumes(z, p)
     if first:
         x1, x2 = x1 * v1, x2 * v2
     else:
-        x1, x2 = observer_step(x1, x2, u_prev, z, fp, k, h, q, grid, csup, cexh)
+        x1, x2 = observer_step(x1, x2, u_prev, z, fp, k, h, p, grid, csup, cexh)
     return x1, x2, x1 / v1, x2 / v2, fp

@@ -23,7 +23,6 @@ from sensor.pneumatic.controllers import (
 from sensor.pneumatic.experiment import LOOP_SUBSTEP_S, Setup, build_plant, run
 from sensor.pneumatic.lines import DeadVolume
 from sensor.pneumatic.loop_metrics import metrics
-from sensor.pneumatic.observer import MODEL as MODEL_DTYPE
 from sensor.pneumatic.observer import (
     ObserverModel,
     PressureObserver,
@@ -74,7 +73,7 @@ def test_smc_equivalent_conductance_gives_the_requested_force_rate():
     # maps to, makes F_p' = A1 P1' - A2 P2' (eq 15, isothermal, moving volumes) equal the request.
     plant = Plant(valve=ENFIELD_LH05, line_1=DeadVolume(2.0), line_2=DeadVolume(2.0))
     model = ObserverModel.from_plant(plant)
-    q = model.q
+    q = model.params
     cal_c, cal_u = valve_inverse(model)
     rng = np.random.default_rng(1)
     checked = 0
@@ -88,9 +87,9 @@ def test_smc_equivalent_conductance_gives_the_requested_force_rate():
         v1, v2 = volumes(z, q)
         m1 = plant.valve.mass_flow(u, plant.supply_Pa, p1, 1)
         m2 = plant.valve.mass_flow(u, plant.supply_Pa, p2, 2)
-        dp1 = (m1 * q.view(MODEL_DTYPE)[0]["rt"] - p1 * q.view(MODEL_DTYPE)[0]["area_1"] * v) / v1
-        dp2 = (m2 * q.view(MODEL_DTYPE)[0]["rt"] + p2 * q.view(MODEL_DTYPE)[0]["area_2"] * v) / v2
-        assert q.view(MODEL_DTYPE)[0]["area_1"] * dp1 - q.view(MODEL_DTYPE)[0]["area_2"] * dp2 == pytest.approx(rate, rel=1e-9, abs=1e-6)
+        dp1 = (m1 * q["rt"] - p1 * q["area_1"] * v) / v1
+        dp2 = (m2 * q["rt"] + p2 * q["area_2"] * v) / v2
+        assert q["area_1"] * dp1 - q["area_2"] * dp2 == pytest.approx(rate, rel=1e-9, abs=1e-6)
         checked += 1
     assert checked > 100
 
