@@ -264,8 +264,9 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
         raise SweepError(f"--scheduler = {address!r}: not a Dask scheduler address "
                          f"({' '.join(str(exc).split())[:120]})") from None
     try:
-        futures = [client.submit(solve_row, spec, h, i, m, pure=False) for h, i, m in todo]
-        pending = as_completed(futures)
+        # only as_completed holds the futures: a row's result is released on the cluster
+        # once it is merged, so the workers' memory does not grow with the grid
+        pending = as_completed([client.submit(solve_row, spec, h, i, m, pure=False) for h, i, m in todo])
         healthy = time.monotonic()
         while not pending.is_empty():
             batch = pending.next_batch(block=False)

@@ -5,13 +5,23 @@ repeats of wall time, ``pair_ms`` (target 3 ms) and ``volume_s`` (target 1 s), a
 thread's CPU time, ``pair_cpu_ms`` and ``volume_cpu_s`` (steadier on a shared machine: time
 spent waiting for a core is not counted).
 
-Run from the checkout: ``python -m tests.benchmarks.snr``.
+The peer, hazen, is measured in the same run on the same DICOM pair, alternately with dacm
+in blocks of BLOCK pairs (tests/benchmarks/hazen_peer.py, a child process run by the
+interpreter of hazen's own venv, HAZEN_PYTHON, default .venv-hazen/bin/python: hazen pins
+numpy < 2.4; ``make bench`` makes it). ``hazen`` gives its version, its median wall times
+(``pair_ms``: files to the subtraction SNR of the pair, the work dacm's pair does;
+``task_ms``: its whole SNR task, which also smooths each image), dacm's median over the same
+blocks, and the ratios. Without hazen there is no ratio.
+
+Run from the checkout: ``python -m tests.benchmarks.snr`` (about a minute).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import statistics
+import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -23,7 +33,10 @@ from mri.pair import check_pair
 from mri.roi import parse_roi
 from mri.snr import DEFAULT_ROIS, measure_pair
 
-REAL = Path(__file__).resolve().parents[1] / "data" / "mri" / "siemens_aera_pair"
+ROOT = Path(__file__).resolve().parents[2]
+REAL = ROOT / "tests" / "data" / "mri" / "siemens_aera_pair"
+HAZEN_PYTHON = Path(os.environ.get("HAZEN_PYTHON", ROOT / ".venv-hazen" / "bin" / "python"))
+BLOCK, BLOCKS = 20, 6
 SPECS = {method: (parse_roi(DEFAULT_ROIS[method]),) for method in ("thesis", "nema")}
 
 
@@ -42,6 +55,32 @@ def median_s(repeats: int, fn, *args) -> tuple[float, float]:
         cpu.append(time.thread_time() - start_cpu)
         wall.append(time.perf_counter() - start)
     return statistics.median(wall), statistics.median(cpu)
+
+
+def against_hazen(pair) -> dict | str:
+    """dacm and hazen on the same pair, alternately in blocks of BLOCK (medians, ms)."""
+    if not HAZEN_PYTHON.exists():
+        return f"hazen not installed ({HAZEN_PYTHON} missing; make bench makes it): no ratio"
+    with subprocess.Popen([str(HAZEN_PYTHON), str(Path(__file__).with_name("hazen_peer.py")), *map(str, pair)],
+                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                          text=True) as peer:
+        version = json.loads(peer.stdout.readline())["version"]
+        ours, theirs, task = [], [], []
+        for _ in range(BLOCKS):
+            for _ in range(BLOCK):
+                start = time.perf_counter()
+                files_to_snr(*pair)
+                ours.append(time.perf_counter() - start)
+            peer.stdin.write(f"{BLOCK}\n")
+            peer.stdin.flush()
+            answer = json.loads(peer.stdout.readline())
+            theirs += answer["pair_s"]
+            task += answer["task_s"]
+        peer.stdin.close()
+    ms = {k: 1e3 * statistics.median(v) for k, v in (("dacm", ours), ("pair", theirs), ("task", task))}
+    return {"name": f"hazen {version}", "dacm_pair_ms": round(ms["dacm"], 2), "pair_ms": round(ms["pair"], 2),
+            "task_ms": round(ms["task"], 2), "speedup_pair": round(ms["pair"] / ms["dacm"], 1),
+            "speedup_task": round(ms["task"] / ms["dacm"], 1)}
 
 
 def volume(seed: int, shape=(100, 512, 512)) -> np.ndarray:
@@ -65,7 +104,7 @@ def main() -> None:
         "pair_ms": round(1e3 * pair_s, 2), "pair_cpu_ms": round(1e3 * pair_cpu_s, 2),
         "pair_target_ms": 3.0,
         "volume_s": round(volume_s, 3), "volume_cpu_s": round(volume_cpu_s, 3), "volume_target_s": 1.0,
-        "volume_shape": [100, 512, 512],
+        "volume_shape": [100, 512, 512], "hazen": against_hazen(pair), "load_average": os.getloadavg(),
     }))
 
 

@@ -32,15 +32,23 @@ DACM = "from sensor.cli import run; run()"
 SIZES = (21, 41, 81)
 
 
-def command(*args) -> tuple[float, float]:
+def command(*args, env: dict | None = None) -> tuple[float, float]:
     """Wall time (s) and peak RSS (MB, largest process) of one `dacm` command run alone."""
+    wall_s, rss_mb, _ = command_usage(*args, env=env)
+    return wall_s, rss_mb
+
+
+def command_usage(*args, env: dict | None = None) -> tuple[float, float, float]:
+    """Wall time (s), peak RSS (MB, largest process) and CPU time (s, user + system of the
+    command and its workers) of one `dacm` command run alone, in ``env`` (default: this
+    process's environment)."""
     code = ("import resource, subprocess, sys, time; t = time.perf_counter(); "
             "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
-            "print(time.perf_counter() - t, "
-            "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)")
+            "u = resource.getrusage(resource.RUSAGE_CHILDREN); "
+            "print(time.perf_counter() - t, u.ru_maxrss / 1024, u.ru_utime + u.ru_stime)")
     out = subprocess.run([sys.executable, "-c", code, sys.executable, "-c", DACM, *args],
-                         cwd=ROOT, check=True, capture_output=True, text=True).stdout.split()
-    return float(out[0]), float(out[1])
+                         cwd=ROOT, check=True, capture_output=True, text=True, env=env).stdout.split()
+    return float(out[0]), float(out[1]), float(out[2])
 
 
 def grid(n: int) -> list[str]:
