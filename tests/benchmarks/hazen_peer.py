@@ -8,8 +8,8 @@ of the pair: what dacm's pair measurement does) and ``task`` (the whole SNR task
 also computes the smoothing SNR of each image).
 
 Protocol: started with the two DICOM paths; each line read from stdin is a count N, and
-the answer is one JSON line: N wall times (s) of each, and the SNRs of the last task. An
-empty line or end of input ends it.
+the answer is one JSON line: N wall and CPU (thread) times (s) of each. An empty line or
+end of input ends it.
 """
 
 import json
@@ -29,13 +29,15 @@ def pair(paths: list[str]) -> float:
     return t.snr_by_subtraction(t.dcm_list[0], t.dcm_list[1], t.measured_slice_width)[0]
 
 
-def timed(fn, paths, n: int) -> list[float]:
-    times = []
+def timed(fn, paths, n: int) -> tuple[list[float], list[float]]:
+    """Wall and CPU (thread) times (s) of n calls."""
+    wall, cpu = [], []
     for _ in range(n):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         fn(paths)
-        times.append(time.perf_counter() - t0)
-    return times
+        cpu.append(time.thread_time() - c0)
+        wall.append(time.perf_counter() - t0)
+    return wall, cpu
 
 
 def main() -> None:
@@ -48,7 +50,9 @@ def main() -> None:
         if not line.strip():
             break
         n = int(line)
-        print(json.dumps({"pair_s": timed(pair, paths, n), "task_s": timed(task, paths, n)}), flush=True)
+        (pair_s, pair_cpu_s), (task_s, task_cpu_s) = timed(pair, paths, n), timed(task, paths, n)
+        print(json.dumps({"pair_s": pair_s, "pair_cpu_s": pair_cpu_s, "task_s": task_s, "task_cpu_s": task_cpu_s}),
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -7,11 +7,11 @@ is the client (its own process, so its memory is its own). Prints one JSON objec
 worker count: the command's wall time and cells per second (the whole command: imports,
 the sweep, dataset, CSV and Pareto tables), the client's peak RSS, each worker's peak RSS
 (psutil, sampled every 0.2 s) and the dataset's size on disk; and the client's peak RSS
-of the same command at 101 x 101 on 2 workers, from which the growth per cell is derived.
+of the same command at 51 x 51 on 2 workers, from which the growth per cell is derived.
 The cores of this machine (os.sched_getaffinity) and the load average before and after are
 printed too: more workers than cores share the cores. About 6 minutes on 2 quiet cores.
 
-Run from the repository root: python -m tests.benchmarks.scale [--n 201] [--workers 1 2 4]
+Run from the repository root: python -m tests.benchmarks.scale [--n 201] [--workers 1 2 4] [--small-n 51]
 """
 
 import argparse
@@ -75,11 +75,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=201, help="grid points per axis (default 201)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2, 4])
+    ap.add_argument("--small-n", type=int, default=51, help="grid of the second memory point (default 51)")
     args = ap.parse_args()
     result = {"cores": len(os.sched_getaffinity(0)), "load_average_before": os.getloadavg(), "grid": f"{args.n}x{args.n}"}
     with tempfile.TemporaryDirectory() as tmp:
         runs = {w: sweep_on_cluster(w, args.n, Path(tmp)) for w in args.workers}
-        small_n = (args.n + 1) // 2
+        small_n = args.small_n
         small = sweep_on_cluster(2, small_n, Path(tmp))
     result["workers"] = runs
     big = runs[2] if 2 in runs else next(iter(runs.values()))

@@ -16,7 +16,9 @@ Prints one JSON object: median_ms (one dacm solve, default options, after a warm
 batch_ms_per_design (solve_batch over rows of the default sweep: both hinge sets, phi1 rows
 0, 10, 20, 30, 40, the feasible designs of each row solved together; total time / designs,
 median of 3), batch_solves_per_s (a 10 x 10 phi1/phi2 batch of 05-03 designs),
-max_change_when_increment_halved (the dacm solve is converged), and ``peer``: the OpenSeesPy
+max_change_when_increment_halved (the dacm solve is converged), the single and batch times
+in units of the reference computation (reference.py) with the last round's targets (2 ms,
+0.5 ms a design) in those units, and ``peer``: the OpenSeesPy
 version, the chosen setting and its error, the converged peer answer against dacm's, the
 peer's median times and the ratios. Without openseespy (``pip install -e '.[bench]'``) the
 peer entry says so and no ratio is printed. About a minute with the peer.
@@ -41,6 +43,7 @@ from geometry.params import make_design
 from geometry.topology import build_beam_model, load_model, model_to_dict
 from sensor.design_space.spec import SweepSpec
 from sensor.mechanics.solver import SolverOptions, solve, solve_batch
+from tests.benchmarks.reference import in_reference, reference_s, target
 
 ROOT = Path(__file__).resolve().parents[2]
 ROWS = (0, 10, 20, 30, 40)
@@ -133,6 +136,10 @@ def main():
     median_s = float(np.median(times))
     halved = solve(model, options=SolverOptions(increments=2 * SolverOptions().increments))
     out["median_ms"] = round(median_s * 1e3, 3)
+    ref = reference_s()
+    out["reference_s"] = round(ref, 4)
+    out["median_in_reference"] = in_reference(median_s, ref)
+    out["target_median_in_reference"] = target("solve_median")
     out["max_change_when_increment_halved"] = relative_error(
         {q: getattr(halved, q) for q in QUANTITIES}, {q: getattr(r, q) for q in QUANTITIES})
     out["increments"] = r.increments
@@ -151,6 +158,8 @@ def main():
     out["batch_failed"] = sum(d is None for d in dacm_batch)
     out["batch_ms_per_design"] = round(float(np.median(per_design)) * 1e3, 3)
     out["batch_designs"] = n_row
+    out["batch_per_design_in_reference"] = in_reference(float(np.median(per_design)), ref)
+    out["target_batch_per_design_in_reference"] = target("batch_per_design")
     designs = [make_design(p1, p2) for p1 in np.linspace(10, 28, 10) for p2 in np.linspace(8, 40, 10)]
     models = [build_beam_model(d) for d in designs]
     t0 = time.perf_counter()
