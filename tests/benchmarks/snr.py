@@ -64,9 +64,10 @@ def against_hazen(pair) -> dict | str:
     """dacm and hazen on the same pair, alternately in blocks of BLOCK (medians, ms)."""
     if not HAZEN_PYTHON.exists():
         return f"hazen not installed ({HAZEN_PYTHON} missing; make bench makes it): no ratio"
-    with subprocess.Popen([str(HAZEN_PYTHON), str(Path(__file__).with_name("hazen_peer.py")), *map(str, pair)],
-                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                          text=True) as peer:
+    # in a temporary folder: hazen writes its log file into the working directory
+    with tempfile.TemporaryDirectory() as cwd, subprocess.Popen(
+            [str(HAZEN_PYTHON), str(Path(__file__).with_name("hazen_peer.py")), *(str(p.resolve()) for p in pair)],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, cwd=cwd) as peer:
         version = json.loads(peer.stdout.readline())["version"]
         times = {k: [] for k in ("dacm", "dacm_cpu", "pair", "pair_cpu", "task", "task_cpu")}
         for _ in range(BLOCKS):
