@@ -67,7 +67,8 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
     :class:`~sensor.errors.ResourceNote`); 1 runs serially in this process. ``scheduler`` is
     a Dask distributed scheduler address. With ``resume`` the cells of an existing dataset
     at ``dataset_path`` (same spec) are reused. The dataset is checkpointed (atomically)
-    every ``checkpoint_s`` seconds and when the sweep is stopped, so it can be resumed.
+    every ``checkpoint_s`` seconds, or 20 times as long as the last save took if that is
+    longer, and when the sweep is stopped, so it can be resumed.
     """
     check_run_options(workers, scheduler, cluster_timeout_s)
     if dataset_path is not None:
@@ -80,7 +81,7 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
     done = 0
     if progress is not None:
         progress.start(n_cells)
-    last = time.monotonic()
+    last, interval = time.monotonic(), checkpoint_s
     try:
         with contextlib.closing(_execute(spec, todo, workers, scheduler, cluster_timeout_s)) as rows:
             for row in rows:
@@ -88,9 +89,12 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
                 done += int(row["computed"].sum())
                 if progress is not None:
                     progress.advance(int(row["computed"].sum()))
-                if dataset_path is not None and time.monotonic() - last > checkpoint_s:
+                if dataset_path is not None and time.monotonic() - last > interval:
+                    start = time.monotonic()
                     save_dataset(ds, dataset_path)
                     last = time.monotonic()
+                    # a save grows with the grid (about 40 s at 10^6 cells): at most 1/20 of the run
+                    interval = max(checkpoint_s, 20 * (last - start))
     except (KeyboardInterrupt, ClusterLostError) as exc:
         where = _save_checkpoint(ds, dataset_path, done)
         what = (f"after {done} of {n_cells} cells{where}; finish with --resume" if done else

@@ -17,6 +17,7 @@ Run from the repository root: python -m tests.benchmarks.scale [--n 201] [--work
 import argparse
 import json
 import os
+import sys
 import tempfile
 import threading
 from pathlib import Path
@@ -79,7 +80,10 @@ def main():
     args = ap.parse_args()
     result = {"cores": len(os.sched_getaffinity(0)), "load_average_before": os.getloadavg(), "grid": f"{args.n}x{args.n}"}
     with tempfile.TemporaryDirectory() as tmp:
-        runs = {w: sweep_on_cluster(w, args.n, Path(tmp)) for w in args.workers}
+        runs = {}
+        for w in args.workers:
+            runs[w] = sweep_on_cluster(w, args.n, Path(tmp))
+            print(json.dumps({w: runs[w]}), file=sys.stderr, flush=True)  # progress
         small_n = args.small_n
         small = sweep_on_cluster(2, small_n, Path(tmp))
     result["workers"] = runs
