@@ -184,6 +184,15 @@ def test_dask_rows_are_released_once_merged():
     assert len(held) == 12 and max(held[-4:]) <= 3, held
 
 
+def test_sweep_size_is_bounded_before_anything_is_allocated():
+    from sensor.design_space.spec import MAX_CELLS
+
+    n = int((MAX_CELLS / 2) ** 0.5)  # two hinge sets, n x (n + 1) cells each with the basis
+    assert SweepSpec(phi1=Grid(5, 33, n - 1), phi2=Grid(4, 56, n - 1)).phi1.n == n - 1
+    with pytest.raises(SweepError, match=f"at most {MAX_CELLS} cells"):
+        SweepSpec(phi1=Grid(5, 33, n + 1), phi2=Grid(4, 56, n + 1))
+
+
 def test_unreachable_scheduler_fails_fast():
     import time
     t0 = time.monotonic()
