@@ -2,10 +2,11 @@
 (80 802 cells) on a local Dask cluster (distributed.LocalCluster, one single-threaded
 process per worker) of 1, 2 and 4 workers.
 
-For each cluster, the `dacm sweep --scheduler ADDRESS --no-plots` command of this checkout
-is the client (its own process, so its memory is its own). Prints one JSON object with, per
-worker count: the command's wall time and cells per second (the whole command: imports,
-the sweep, dataset, CSV and Pareto tables), the client's peak RSS, each worker's peak RSS
+For each cluster, the client is a process of its own (so its memory is its own) that runs
+the sweep on the cluster as `dacm sweep --scheduler ADDRESS --no-plots` does (CLIENT: rows
+merged as they arrive, checkpoints, the dataset saved; no CSV or tables). Prints one JSON
+object with, per worker count: the client's wall time and cells per second (imports, the
+sweep, the dataset), the client's peak RSS, each worker's peak RSS
 (psutil, sampled every 0.2 s) and the dataset's size on disk; and the client's peak RSS
 of the same command at 51 x 51 on 2 workers, from which the growth per cell is derived.
 The cores of this machine (os.sched_getaffinity) and the load average before and after are
@@ -28,7 +29,25 @@ import psutil  # noqa: E402
 from distributed import Client, LocalCluster  # noqa: E402
 
 from sensor.design_space.spec import SweepSpec  # noqa: E402
-from tests.benchmarks.sweep import command, grid  # noqa: E402
+from tests.benchmarks.sweep import command_usage  # noqa: E402
+
+#: The client: run_sweep on the cluster, rows merged into the dataset as they arrive and
+#: checkpointed to OUT, then the dataset saved, as `dacm sweep --scheduler` does, with a
+#: cluster timeout of CLUSTER_TIMEOUT_S: on a loaded machine the default 10 s took a cluster
+#: that had not finished its first row for a lost one.
+CLUSTER_TIMEOUT_S = 300.0
+CLIENT = f"""
+import sys
+from pathlib import Path
+from sensor.design_space.dataset import save_dataset
+from sensor.design_space.execution import run_sweep
+from sensor.design_space.spec import Grid, SweepSpec
+address, n, path = sys.argv[1], int(sys.argv[2]), Path(sys.argv[3])
+d = SweepSpec()
+spec = SweepSpec(phi1=Grid(d.phi1.start, d.phi1.stop, n), phi2=Grid(d.phi2.start, d.phi2.stop, n))
+ds, _ = run_sweep(spec, "bench", path, scheduler=address, cluster_timeout_s={CLUSTER_TIMEOUT_S})
+save_dataset(ds, path)
+"""
 
 
 class PeakRSS:
@@ -64,8 +83,8 @@ def sweep_on_cluster(n_workers: int, n: int, out: Path) -> dict:
                       dashboard_address=None, memory_limit=0) as cluster, Client(cluster) as client:
         pids = list(client.run(os.getpid).values())
         with PeakRSS(pids) as workers:
-            wall_s, client_mb = command("sweep", "--scheduler", cluster.scheduler_address, "--no-plots",
-                                        "--quiet", "--force", "--out", str(out), *grid(n))
+            wall_s, client_mb, _ = command_usage(cluster.scheduler_address, str(n), str(out / "sweep.nc"),
+                                                 program=CLIENT)
     cells = len(SweepSpec().hinge_sets) * n * n
     return {"cells": cells, "wall_s": round(wall_s, 1), "cells_per_s": round(cells / wall_s),
             "client_peak_rss_MB": round(client_mb), "worker_peak_rss_MB": sorted(round(v) for v in workers.peak.values()),

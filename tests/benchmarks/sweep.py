@@ -42,16 +42,20 @@ def command(*args, env: dict | None = None) -> tuple[float, float]:
     return wall_s, rss_mb
 
 
-def command_usage(*args, env: dict | None = None) -> tuple[float, float, float]:
+def command_usage(*args, env: dict | None = None, program: str = DACM) -> tuple[float, float, float]:
     """Wall time (s), peak RSS (MB, largest process) and CPU time (s, user + system of the
-    command and its workers) of one `dacm` command run alone, in ``env`` (default: this
-    process's environment)."""
+    command and its workers) of one `dacm` command (or other ``python -c`` program) run
+    alone, in ``env`` (default: this process's environment)."""
     code = ("import resource, subprocess, sys, time; t = time.perf_counter(); "
-            "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
+            "r = subprocess.run(sys.argv[1:], capture_output=True, text=True); "
+            "sys.exit(r.stderr[-2000:]) if r.returncode else None; "
             "u = resource.getrusage(resource.RUSAGE_CHILDREN); "
             "print(time.perf_counter() - t, u.ru_maxrss / 1024, u.ru_utime + u.ru_stime)")
-    out = subprocess.run([sys.executable, "-c", code, sys.executable, "-c", DACM, *args],
-                         cwd=ROOT, check=True, capture_output=True, text=True, env=env).stdout.split()
+    run = subprocess.run([sys.executable, "-c", code, sys.executable, "-c", program, *args],
+                         cwd=ROOT, capture_output=True, text=True, env=env)
+    if run.returncode:
+        raise RuntimeError(f"dacm {' '.join(args)} failed: {run.stderr.strip()}")
+    out = run.stdout.split()
     return float(out[0]), float(out[1]), float(out[2])
 
 
