@@ -3,7 +3,9 @@
 
 Each compliant member (hinge, link) is ``n_elements`` co-rotational force-based beam
 elements with an elastic section that includes shear (G = E / 2(1 + nu), shear factor 5/6
-of a rectangle: the terms of thesis eqs 80-82), three Gauss-Lobatto points each. Rigid
+of a rectangle: the terms of thesis eqs 80-82), three Gauss-Lobatto points each; a member
+with a thickness ``profile`` (the hinges as cut: neck and root fillets, t linear between
+stations) has the section of its thickness there at each point. Rigid
 members are co-rotational elastic beams RIGID_FACTOR times stiffer than the material (a
 rigid link constraint in OpenSees is linear in the rotation, which would be wrong at the
 bodies' rotations). The input force is a dead load along the input direction; the output
@@ -18,10 +20,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import openseespy.opensees as ops
 
 RIGID_FACTOR = 1e4
 LOBATTO_POINTS = 3
+LOBATTO_X, LOBATTO_W = (0.0, 0.5, 1.0), (1 / 6, 4 / 6, 1 / 6)
 DOF = {"x": 1, "y": 2, "rz": 3}
 
 
@@ -47,7 +51,7 @@ def build(data: dict, n_elements: int) -> list[int]:
     E, nu = data["material"]["E_MPa"], data["material"]["nu"]
     G = E / (2 * (1 + nu))
     ops.geomTransf("Corotational", 1)
-    next_node, next_elem, compliant = len(nodes) + 1, 1, []
+    next_node, next_elem, next_section, compliant = len(nodes) + 1, 1, 1, []
     for k, m in enumerate(data["members"]):
         t, b = m["thickness_mm"], m["depth_mm"]
         A, I = t * b, b * t**3 / 12
@@ -56,8 +60,6 @@ def build(data: dict, n_elements: int) -> list[int]:
             ops.element("elasticBeamColumn", next_elem, a, z, A, E * RIGID_FACTOR, I, 1)
             next_elem += 1
             continue
-        ops.section("Elastic", k + 1, E, A, I, G, 5 / 6)
-        ops.beamIntegration("Lobatto", k + 1, k + 1, LOBATTO_POINTS)
         (xa, ya), (xz, yz) = nodes[m["start"]], nodes[m["end"]]
         chain = [a]
         for j in range(1, n_elements):
@@ -65,9 +67,23 @@ def build(data: dict, n_elements: int) -> list[int]:
             chain.append(next_node)
             next_node += 1
         chain.append(z)
-        for i, j in zip(chain, chain[1:]):
-            ops.element("forceBeamColumn", next_elem, i, j, 1, k + 1)
-            compliant.append(next_elem)
+        for e, (i, j) in enumerate(zip(chain, chain[1:])):
+            tag = next_elem
+            if "profile" in m:  # the section at each Lobatto point of the element
+                s_, t_ = zip(*m["profile"])
+                secs = []
+                for x in LOBATTO_X:
+                    tx = float(np.interp((e + x) / n_elements * s_[-1], s_, t_))
+                    ops.section("Elastic", next_section, E, tx * b, b * tx**3 / 12, G, 5 / 6)
+                    secs.append(next_section)
+                    next_section += 1
+                ops.beamIntegration("UserDefined", tag, LOBATTO_POINTS, *secs, *LOBATTO_X, *LOBATTO_W)
+            else:
+                ops.section("Elastic", next_section, E, A, I, G, 5 / 6)
+                ops.beamIntegration("Lobatto", tag, next_section, LOBATTO_POINTS)
+                next_section += 1
+            ops.element("forceBeamColumn", tag, i, j, 1, tag)
+            compliant.append(tag)
             next_elem += 1
     return compliant
 
