@@ -13,7 +13,8 @@ the first (once; at
 the chosen elements per member and PEER_BATCH_STEPS load steps; the distribution of the
 differences from dacm's answers is printed).
 
-Prints one JSON object: median_ms (one dacm solve, default options, after a warm-up),
+Prints one JSON object: median_ms and median_cpu_ms (one dacm solve, default options,
+after a warm-up; wall and thread CPU time, the latter steady on a loaded machine),
 batch_ms_per_design (solve_batch over rows of the default sweep: both hinge sets, phi1 rows
 0, 10, 20, 30, 40, the feasible designs of each row solved together; total time / designs,
 median of 3), batch_solves_per_s (a 10 x 10 phi1/phi2 batch of 05-03 designs),
@@ -89,6 +90,13 @@ def timed(fn, *args) -> float:
     return time.perf_counter() - t0
 
 
+def timed_cpu(fn, *args) -> tuple[float, float]:
+    """Wall and CPU (thread) time (s) of one call."""
+    t0, c0 = time.perf_counter(), time.thread_time()
+    fn(*args)
+    return time.perf_counter() - t0, time.thread_time() - c0
+
+
 def peer_setting(peer, data: dict) -> dict:
     """The peer's converged answer and its cheapest setting within PEER_TOLERANCE of it."""
     converged = peer.solve(data, *PEER_CONVERGED)
@@ -115,7 +123,7 @@ def peer_or_none(peer, data: dict, n: int, steps: int) -> dict | None:
 def main():
     try:
         from tests.benchmarks import opensees_peer as peer
-    except ImportError:
+    except (ImportError, RuntimeError):  # not installed; on Linux without libblas3: RuntimeError
         peer = None
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -130,13 +138,14 @@ def main():
         setting = (chosen["elements_per_member"], chosen["load_steps"])
         peer_times, times = [], []
         for _ in range(REPEATS):
-            times.append(timed(solve, model))
-            peer_times.append(timed(peer.solve, data, *setting))
+            times.append(timed_cpu(solve, model))
+            peer_times.append(timed_cpu(peer.solve, data, *setting))
     else:
-        times = [timed(solve, model) for _ in range(REPEATS)]
-    median_s = float(np.median(times))
+        times = [timed_cpu(solve, model) for _ in range(REPEATS)]
+    median_s, median_cpu_s = (float(v) for v in np.median(times, axis=0))
     halved = solve(model, options=SolverOptions(increments=2 * SolverOptions().increments))
     out["median_ms"] = round(median_s * 1e3, 3)
+    out["median_cpu_ms"] = round(median_cpu_s * 1e3, 3)
     ref = reference_s()
     out["reference_s"] = round(ref, 4)
     out["median_in_reference"] = in_reference(median_s, ref)
@@ -171,12 +180,12 @@ def main():
     out["load_average"] = os.getloadavg()
 
     if peer is None:
-        out["peer"] = "openseespy not installed (pip install -e '.[bench]'): no ratio"
+        out["peer"] = "openseespy not installed or not loadable (pip install -e '.[bench]'): no ratio"
     else:
         conv = chosen.pop("converged")
         differences = [relative_error({q: getattr(d, q) for q in QUANTITIES}, p)
                        for d, p in zip(dacm_batch, peer_batch) if d is not None and p is not None]
-        peer_ms = float(np.median(peer_times)) * 1e3
+        peer_ms, peer_cpu_ms = (float(v) * 1e3 for v in np.median(peer_times, axis=0))
         peer_batch_ms = float(np.median(peer_per_design)) * 1e3
         out["peer"] = {
             "name": f"OpenSeesPy {ops.version()}", **chosen,
@@ -184,6 +193,8 @@ def main():
             "dacm_vs_peer_converged": {q: getattr(r, q) / conv[q] - 1 for q in QUANTITIES},
             "median_ms": round(peer_ms, 3),
             "speedup": round(peer_ms / out["median_ms"], 1),
+            "median_cpu_ms": round(peer_cpu_ms, 3),
+            "speedup_cpu": round(peer_cpu_ms / out["median_cpu_ms"], 1),
             "batch_ms_per_design": round(peer_batch_ms, 3),
             "batch_failed": sum(p is None for p in peer_batch),
             "batch_load_steps": PEER_BATCH_STEPS,
