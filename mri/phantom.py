@@ -71,7 +71,7 @@ def air_threshold(image: np.ndarray) -> float:
     squares of the image."""
     side = max(2, min(image.shape) // AIR_CORNER_DIVISOR)
     corners = (image[:side, :side], image[:side, -side:], image[-side:, :side], image[-side:, -side:])
-    return float(np.median([mean + AIR_SIGMAS * std for mean, std in map(_mean_std, corners)]))
+    return _median(np.array([mean + AIR_SIGMAS * std for mean, std in map(_mean_std, corners)]))
 
 
 def _mean_std(values: np.ndarray) -> tuple[float, float]:

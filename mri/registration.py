@@ -60,7 +60,7 @@ def shift_and_gain(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float, f
     if min(a.shape) >= BIN_FROM_PX:
         gain, dr, dc, offset = shift_and_gain(_binned(a), _binned(b))
         return gain, 2 * dr, 2 * dc, offset
-    a, b = a.astype(np.float64), b.astype(np.float64)
+    a, b = a.astype(np.float64, copy=False), b.astype(np.float64, copy=False)  # binned: float64
     mean = (a + b) / 2
     columns = (-mean, *np.gradient(mean))
     diff = a - b
