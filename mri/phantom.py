@@ -120,13 +120,13 @@ def above(image: np.ndarray, threshold: float) -> np.ndarray:
 
 def fill_holes(mask: np.ndarray) -> np.ndarray:
     """``mask`` with every background region that does not touch the image border filled."""
-    return _filled_and_outline(mask)[0]
+    return _filled(mask)[0]
 
 
-def _filled_and_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`fill_holes` and :func:`outline_points` of ``mask`` (the outline of the filled
-    mask: a hole never holds a row's or a column's outermost pixel), from one pass over the
-    rows and one over the columns.
+def _filled(mask: np.ndarray):
+    """:func:`fill_holes` of ``mask``, its bounding box and the :func:`_spans` of the box's
+    rows and columns, from which :func:`_outline` gives the outline of ``mask`` and of the
+    filled mask alike (a hole never holds a row's or a column's outermost pixel).
 
     A hole pixel lies between mask pixels both in its row and in its column (otherwise its row
     or column leads straight out), so in a row and a column with a gap. Candidates are looked
@@ -137,16 +137,15 @@ def _filled_and_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     box = bounding_box(mask)
     filled = mask.copy()
     if box is None:
-        return filled, np.empty((0, 2))
+        return filled, None, None, None
     region = mask[box]
     row_first, row_after, row_gaps = row_spans = _spans(region)
     col_first, col_after, col_gaps = col_spans = _spans(region.T)
-    points = _outline(box, row_spans, col_spans)
     gap_rows, gap_cols = np.flatnonzero(row_gaps), np.flatnonzero(col_gaps)
     hits = np.nonzero(_candidates(region, gap_rows[:, None], gap_cols, row_first, row_after,
                                   col_first, col_after))
     if hits[0].size == 0:
-        return filled, points
+        return filled, box, row_spans, col_spans
     # the candidates' box and one pixel more on each side (a candidate is never on the
     # region's border, so none lies on this window's)
     r0, r1 = int(gap_rows[hits[0]].min()) - 1, int(gap_rows[hits[0]].max()) + 2
@@ -165,7 +164,7 @@ def _filled_and_outline(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     open_label[0] = True  # label 0: not a candidate
     open_label[labels[touching]] = True
     filled[box][r0:r1, c0:c1] |= ~open_label[labels]
-    return filled, points
+    return filled, box, row_spans, col_spans
 
 
 def _candidates(region, rows, cols, row_first, row_after, col_first, col_after) -> np.ndarray:
@@ -353,13 +352,14 @@ def phantom_centroid(image: np.ndarray, near: tuple[float, float]) -> tuple[floa
 
 def _find(image: np.ndarray, near=None) -> tuple[np.ndarray, PhantomFit]:
     threshold = detection_threshold(image)
-    mask, points = _filled_and_outline(largest_component(above(image, threshold), near))
+    mask, box, row_spans, col_spans = _filled(largest_component(above(image, threshold), near))
     if mask[0].any() and mask[-1].any() and mask[:, 0].any() and mask[:, -1].any():
         raise RoiError(
             f"automatic phantom mask: the region above the threshold {threshold:.4g} reaches all "
             "four edges of the image; no phantom found (a slice of noise, or a phantom larger "
             "than the field of view)"
         )
+    points = _outline(box, row_spans, col_spans)
     (row, col, radius), circle_in = fit_circle(points)
     (top, bottom, left, right), rect_in = fit_rectangle(points)
     centroid = _centroid(mask)
