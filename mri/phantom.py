@@ -118,6 +118,10 @@ def above(image: np.ndarray, threshold: float) -> np.ndarray:
     return np.greater(image, threshold, signature="dd->?")
 
 
+#: 4-connectivity, the structure ndimage.label uses by default (given: not rebuilt each call).
+CROSS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
+
+
 def fill_holes(mask: np.ndarray) -> np.ndarray:
     """``mask`` with every background region that does not touch the image border filled."""
     return _filled(mask)[0]
@@ -153,7 +157,7 @@ def _filled(mask: np.ndarray):
     candidates = _candidates(region, np.arange(r0, r1)[:, None], np.arange(c0, c1), row_first,
                              row_after, col_first, col_after)
     background = ~region[r0:r1, c0:c1]
-    labels, count = ndimage.label(candidates)
+    labels, count = ndimage.label(candidates, CROSS)
     outside = background & ~candidates
     touching = np.zeros_like(outside)  # pixels with a 4-neighbour outside
     touching[1:] |= outside[:-1]
@@ -196,7 +200,7 @@ def largest_component(mask: np.ndarray, near: tuple[float, float] | None = None)
         raise RoiError("automatic phantom mask: no pixel above the threshold")
     region = mask[box]
     # n pixels hold at most n / 2 regions (a checkerboard): 16-bit labels when they suffice
-    labels, count = ndimage.label(region, output=np.uint16 if region.size <= 2 * 65535 else np.int32)
+    labels, count = ndimage.label(region, CROSS, output=np.uint16 if region.size <= 2 * 65535 else np.int32)
     chosen = 0
     if near is not None:
         row, col = int(round(near[0])) - box[0].start, int(round(near[1])) - box[1].start
