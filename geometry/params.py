@@ -63,13 +63,15 @@ DELRIN_E_MPA = 1773.2
 #: (J. M. Margolis (ed.), Engineering Plastics Handbook, McGraw-Hill 2006, Table 5.5), so
 #: 36 MPa; moulded impact-grade ABS yields at 42.7 MPa (ASTM D638, guaranteed minimum of the
 #: APAC Infrastructure ABS specification; FDM prints are weaker across layers), so 20 MPa.
-#: Volume susceptibilities (SI, ppm, room temperature), as measured at 9.4 T by Wapler et al.,
-#: Magnetic properties of materials for MR engineering, micro-MR and beyond, J. Magn. Reson.
-#: 242 (2014) 233-242 (polymers table): POM (Delrin) about -9.5 and ABS about -9.0, both
-#: within 0.5 ppm of water (-9.05, Schenck 1996, Med. Phys. 23:815), the reason polymers
-#: are "MR safe" and nearly artefact-free.
+#: Volume susceptibilities (SI, ppm, room temperature): POM (Delrin) -9.36, measured by
+#: Wapler et al., Magnetic properties of materials for MR engineering, micro-MR and beyond,
+#: J. Magn. Reson. 242 (2014) 233-242 (as quoted from that paper; its table not re-read
+#: here). ABS -9.0 is not a sourced measurement: no published value was found, and it is
+#: taken at the value typical of amorphous polymers (PMMA -9.06, POM -9.36, Wapler 2014),
+#: so the artefact model cannot tell delrin from ABS. Both are within 0.5 ppm of water
+#: (-9.05, Schenck 1996, Med. Phys. 23:815), the reason polymers are nearly artefact-free.
 MATERIALS: dict[str, Material] = {
-    "delrin": Material("delrin", DELRIN_E_MPA, 0.35, 36.0, chi_ppm=-9.5),
+    "delrin": Material("delrin", DELRIN_E_MPA, 0.35, 36.0, chi_ppm=-9.36),
     "abs": Material("abs", 1800.0, 0.35, 20.0, chi_ppm=-9.0),
 }
 

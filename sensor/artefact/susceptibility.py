@@ -9,8 +9,10 @@ Values at room or body temperature, from
   magnetic compatibility of the first and second kinds, Med. Phys. 23 (1996) 815-850,
   Table 1: water -9.05, air +0.36, aluminium +20.7;
 - M. C. Wapler et al., Magnetic properties of materials for MR engineering, micro-MR and
-  beyond, J. Magn. Reson. 242 (2014) 233-242: PMMA (the plastic fiber's core) about -9.0,
-  fused silica (a glass fiber) about -11.0;
+  beyond, J. Magn. Reson. 242 (2014) 233-242: PMMA (the plastic fiber's core) -9.06;
+- fused silica (a glass fiber): the molar susceptibility -29.6e-6 cm^3/mol (CGS) of SiO2 in
+  the CRC Handbook ("Magnetic susceptibility of the elements and inorganic compounds"),
+  times the glass' density 2.196 g/cm^3 over 60.08 g/mol and 4 pi: -13.6 ppm;
 - silicon (the thesis' mirror, section 6.1.3): the molar susceptibility -3.9e-6 cm^3/mol
   (CGS) of the CRC Handbook of Chemistry and Physics ("Magnetic susceptibility of the
   elements"), times its density 2.329 g/cm^3 over 28.086 g/mol and 4 pi: -4.1 ppm.
@@ -28,8 +30,8 @@ SUSCEPTIBILITY_PPM: dict[str, float] = {
     "water": -9.05,
     "air": 0.36,
     "aluminium": 20.7,
-    "pmma": -9.0,
-    "silica": -11.0,
+    "pmma": -9.06,
+    "silica": -13.6,
     "silicon": 4.0 * math.pi * -3.9e-6 * 2.329 / 28.086 * 1e6,
 }
 
