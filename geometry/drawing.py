@@ -143,9 +143,9 @@ def dimensioned_figure(design: Design, kerf_mm: float | None = None) -> Figure:
     fig = Figure(figsize=(9.0, 5.8), layout="tight")
     ax, tab = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.15, 1.0]})
     plot_profile(design, ax)
-    for pt, dy in ((lay.input_point, 0.9), (lay.output_point, -1.6)):
+    for pt, dx, dy in ((lay.input_point, -1.6, 0.9), (lay.output_point, -1.8, -3.5)):
         ax.plot(*pt, marker="o", ms=3.5, color=_PORT, zorder=4)
-        ax.text(pt[0] - 1.6, pt[1] + dy, f"({pt[0]:.2f}, {pt[1]:.2f})", ha="right", fontsize=7, color=_PORT)
+        ax.text(pt[0] + dx, pt[1] + dy, f"({pt[0]:.2f}, {pt[1]:.2f})", ha="right", fontsize=7, color=_PORT)
     tab.set_axis_off()
     rows = [["hinge", "t (mm)", "L (mm)"]]
     rows += [[str(p.hinge), f"{p.width:.4f}", f"{np.linalg.norm(p.axis[1] - p.axis[0]):.3f}"] for p in hinges]

@@ -288,14 +288,17 @@ def evaluate(problem: DesignProblem, Z) -> list[Point]:
 
 
 class _Local:
-    """The SLSQP functions of one problem in the unit box, with a cache: the value and the
-    forward-difference gradient at a point come from one batch solve of it and its
-    perturbations; ``points`` keeps every body evaluated."""
+    """The SLSQP functions of one problem in the unit box, cached: a point's values come from
+    one solve, its forward-difference gradient (asked for only at accepted iterates) from one
+    batch solve of its perturbations; ``points`` keeps every body evaluated and
+    ``solves`` counts the solves."""
 
     def __init__(self, problem: DesignProblem, objective: str = "se"):
         self.p, self.objective = problem, objective
-        self.cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self.values: dict[bytes, np.ndarray] = {}
+        self.grads: dict[bytes, np.ndarray] = {}
         self.points: list[Point] = []
+        self.solves = 0
 
     def _values(self, pt: Point) -> np.ndarray:
         obj = {"se": pt.log_se, "min_range": pt.log_range_error, "max_range": -pt.log_range_error}[self.objective]
@@ -305,24 +308,32 @@ class _Local:
                                 pt.phi2_margin / 10.0 if math.isfinite(pt.phi2_margin) else 1.0],
                                math.log1p(-STRESS_SLACK) - np.log(np.maximum(util, 1e-9))])
 
-    def at(self, u) -> tuple[np.ndarray, np.ndarray]:
+    def at(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
         key = u.tobytes()
-        if key not in self.cache:
-            n = len(u)
-            U = np.vstack([u, u + FD_STEP * np.eye(n)])
-            pts = evaluate(self.p, self.p.from_unit(U))
-            self.points.append(pts[0])
-            vals = np.array([self._values(pt) for pt in pts])
-            self.cache[key] = (vals[0], (vals[1:] - vals[0]).T / FD_STEP)
-        return self.cache[key]
+        if key not in self.values:
+            pt = evaluate(self.p, self.p.from_unit(u)[None])[0]
+            self.points.append(pt)
+            self.solves += 1
+            self.values[key] = self._values(pt)
+        return self.values[key]
+
+    def grad(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        key = u.tobytes()
+        if key not in self.grads:
+            U = u + FD_STEP * np.eye(len(u))
+            vals = np.array([self._values(pt) for pt in evaluate(self.p, self.p.from_unit(U))])
+            self.solves += len(U)
+            self.grads[key] = (vals - self.at(u)).T / FD_STEP
+        return self.grads[key]
 
     def run(self, u0, equality: bool = True):
-        cons = [{"type": "ineq", "fun": lambda u: self.at(u)[0][2:], "jac": lambda u: self.at(u)[1][2:]}]
+        cons = [{"type": "ineq", "fun": lambda u: self.at(u)[2:], "jac": lambda u: self.grad(u)[2:]}]
         if equality:
-            cons.append({"type": "eq", "fun": lambda u: self.at(u)[0][1:2], "jac": lambda u: self.at(u)[1][1:2]})
-        return minimize(lambda u: OBJECTIVE_SCALE * self.at(u)[0][0], np.clip(u0, 0, 1),
-                        jac=lambda u: OBJECTIVE_SCALE * self.at(u)[1][0],
+            cons.append({"type": "eq", "fun": lambda u: self.at(u)[1:2], "jac": lambda u: self.grad(u)[1:2]})
+        return minimize(lambda u: OBJECTIVE_SCALE * self.at(u)[0], np.clip(u0, 0, 1),
+                        jac=lambda u: OBJECTIVE_SCALE * self.grad(u)[0],
                         method="SLSQP", bounds=[(0.0, 1.0)] * len(u0), constraints=cons,
                         options={"maxiter": SLSQP_ITERATIONS, "ftol": SLSQP_FTOL})
 
@@ -339,19 +350,22 @@ def feasible(problem: DesignProblem, pt: Point, slack: float = 0.0, in_range: bo
     return check_design(pt.design).feasible
 
 
-def _local_search(args) -> tuple[np.ndarray, list[Point]]:
+def _local_search(args) -> tuple[np.ndarray, list[Point], int]:
+    """One SLSQP run: (its end in the unit box, every point evaluated, solves made)."""
     problem, u0, objective = args
     loc = _Local(problem, objective)
     res = loc.run(u0, equality=objective == "se")
-    return np.clip(res.x, 0, 1), loc.points
+    return np.clip(res.x, 0, 1), loc.points, loc.solves
 
 
 # --- starts ---------------------------------------------------------------------------------
 
-def scale_to_range(problem: DesignProblem, Z, iterations: int = 12, tolerance: float = 1e-6) -> np.ndarray:
+def scale_to_range(problem: DesignProblem, Z, iterations: int = 12, tolerance: float = 1e-6,
+                   counter: list | None = None) -> np.ndarray:
     """Variables Z with every hinge thickened or thinned together (one common factor per row)
     until the range is the target (range ~ t^3 at fixed shape: a secant in log-log), not
-    clipped to the hinge bounds. A row that fails to solve is returned as it came."""
+    clipped to the hinge bounds. A row that fails to solve is returned as it came.
+    ``counter``: a one-element list the number of solves is added to."""
     Z = np.array(np.atleast_2d(Z), dtype=float)
     prev: list = [None] * len(Z)
     alive = np.arange(len(Z))
@@ -359,6 +373,8 @@ def scale_to_range(problem: DesignProblem, Z, iterations: int = 12, tolerance: f
         if not len(alive):
             break
         pts = evaluate(problem, Z[alive])
+        if counter is not None:
+            counter[0] += len(alive)
         keep = []
         for k, pt in zip(alive, pts):
             err = pt.log_range_error
@@ -375,7 +391,7 @@ def scale_to_range(problem: DesignProblem, Z, iterations: int = 12, tolerance: f
     return Z
 
 
-def equal_hinge_start(problem: DesignProblem, n: int = 8) -> np.ndarray | None:
+def equal_hinge_start(problem: DesignProblem, n: int = 8, counter: list | None = None) -> np.ndarray | None:
     """The best feasible equal-hinge body of the range on an n x n grid of angles (n for the
     basis body), as variables; None if no cell of the grid is feasible."""
     lo, hi = problem.lower[:problem.n_angles], problem.upper[:problem.n_angles]
@@ -384,18 +400,19 @@ def equal_hinge_start(problem: DesignProblem, n: int = 8) -> np.ndarray | None:
     if problem.body == "proposed":
         angles = angles[angles[:, 1] <= [problem.domain.phi2_edge(p) for p in angles[:, 0]]]
     t0 = math.log(math.sqrt(problem.hinge_min_mm * problem.hinge_max_mm))
-    Z = scale_to_range(problem, np.hstack([angles, np.full((len(angles), len(problem.pairs)), t0)]))
+    Z = scale_to_range(problem, np.hstack([angles, np.full((len(angles), len(problem.pairs)), t0)]),
+                       counter=counter)
     pts = evaluate(problem, Z)
     good = [pt for pt in pts if feasible(problem, pt)]
     return np.array(min(good, key=lambda pt: pt.log_se).z) if good else None
 
 
-def starts(problem: DesignProblem, n: int = STARTS) -> np.ndarray:
+def starts(problem: DesignProblem, n: int = STARTS, counter: list | None = None) -> np.ndarray:
     """Start points in the unit box: a Latin hypercube of n (seeded by ``problem.seed``)
     scaled to the range, and the best equal-hinge body of the range."""
     lhs = qmc.LatinHypercube(d=len(problem.lower), seed=problem.seed).random(n)
-    Z = scale_to_range(problem, problem.from_unit(lhs))
-    eq = equal_hinge_start(problem)
+    Z = scale_to_range(problem, problem.from_unit(lhs), counter=counter)
+    eq = equal_hinge_start(problem, counter=counter)
     if eq is not None:
         Z = np.vstack([eq, Z])
     return np.clip(problem.to_unit(Z), 0, 1)
@@ -508,21 +525,22 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
     from sensor.design_space.reach import reachable_range, unreachable_message
 
     t0 = time.monotonic()
-    U0 = starts(problem, n_starts)
+    counter = [0]
+    U0 = starts(problem, n_starts, counter)
     best, evaluations = _search(problem, U0, pool, name)
     reach = (math.nan, math.nan)
     if best is None:
         reach, ends = reachable_range(problem, pool, with_bodies=True)
         if not reach[0] * (1 - RANGE_TOLERANCE) <= problem.range_N <= reach[1] * (1 + RANGE_TOLERANCE):
             raise DesignError(unreachable_message(problem, reach))
-        more = scale_to_range(problem, np.array([problem.variables(d) for d in ends]))
+        more = scale_to_range(problem, np.array([problem.variables(d) for d in ends]), counter=counter)
         best, extra = _search(problem, np.clip(problem.to_unit(more), 0, 1), pool, name)
         evaluations += extra
         if best is None:
             raise DesignError(f"range_N = {problem.range_N:g}: the search found no {problem.body} body although "
                               f"{reach[0]:.4g}-{reach[1]:.4g} N is reachable (a fault of the search: please report it)")
     h, util, design = best
-    return DesignResult(design, problem, h, util, reach, evaluations, time.monotonic() - t0)
+    return DesignResult(design, problem, h, util, reach, evaluations + counter[0], time.monotonic() - t0)
 
 
 def _search(problem: DesignProblem, U0: np.ndarray, pool, name: str):
@@ -531,9 +549,9 @@ def _search(problem: DesignProblem, U0: np.ndarray, pool, name: str):
     design) or None, bodies evaluated)."""
     jobs = [(problem, u, "se") for u in U0]
     runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
-    evaluations = sum(len(pts) for _, pts in runs) * (len(problem.lower) + 1)
-    ends = evaluate(problem, problem.from_unit(np.array([u for u, _ in runs])))
-    seen = [pt for _, pts in runs for pt in pts] + ends
+    evaluations = sum(n for _, _, n in runs)
+    ends = evaluate(problem, problem.from_unit(np.array([u for u, _, _ in runs])))
+    seen = [pt for _, pts, _ in runs for pt in pts] + ends
     candidates = sorted((pt for pt in seen if feasible(problem, pt)), key=lambda pt: pt.log_se)
     # ends just over the stress limit or off the range are projected too
     candidates += sorted((pt for pt in ends if pt.ok and pt.utilisation <= 1.01), key=lambda pt: pt.log_se)

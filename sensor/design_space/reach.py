@@ -44,8 +44,8 @@ def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False
     p = replace(problem, range_N=1.0)     # the range is the objective here, not a constraint
     jobs = [(p, u, "min_range") for u in _end_starts(p, 0.0)] + [(p, u, "max_range") for u in _end_starts(p, 1.0)]
     runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
-    ends = evaluate(p, p.from_unit(np.array([u for u, _ in runs])))
-    pts = [pt for _, seen in runs for pt in seen] + ends
+    ends = evaluate(p, p.from_unit(np.array([u for u, _, _ in runs])))
+    pts = [pt for _, seen, _ in runs for pt in seen] + ends
     good = sorted((pt for pt in pts if feasible(p, pt, slack=STRESS_SLACK - 1e-9, in_range=False)),
                   key=lambda pt: pt.log_range_error)
     reach = (float(np.exp(good[0].log_range_error)), float(np.exp(good[-1].log_range_error))) if good else (np.nan, np.nan)
