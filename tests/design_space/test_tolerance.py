@@ -29,7 +29,7 @@ def test_zero_scatter_gives_the_nominal_part():
 
 def test_range_sensitivity_matches_a_regression_over_the_draws():
     """Small scatter (SD 0.005 mm, linear regime): the least-squares slope of range on each
-    pair's summed deviation over 400 draws equals the central-difference sensitivity within
+    pair's mean deviation over 400 draws equals the central-difference sensitivity within
     10 % of the largest sensitivity (regression noise of 400 draws)."""
     sd = 0.005
     z = draws_z(400, 3)
@@ -38,7 +38,7 @@ def test_range_sensitivity_matches_a_regression_over_the_draws():
     sens = range_sensitivity(DESIGN)
     pairs = [(int(a), int(b)) for a, b in (k.split("-") for k in sens)]
     X = np.column_stack([sd * (z[:, a - 1] + z[:, b - 1]) / 2 for a, b in pairs] + [np.ones(len(z))])
-    slope = np.linalg.lstsq(X, rng, rcond=None)[0][:-1] * 0.01 / 2   # N per 0.01 mm of the pair
+    slope = np.linalg.lstsq(X, rng, rcond=None)[0][:-1] * 0.01   # N per 0.01 mm of the pair (mean)
     big = max(abs(v) for v in sens.values())
     for (k, v), s in zip(sens.items(), slope):
         assert s == pytest.approx(v, abs=0.1 * big), (k, s, v)
