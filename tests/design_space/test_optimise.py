@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from geometry.checks import check_design
-from geometry.params import MATERIALS, load_design, save_design
+from geometry.params import MATERIALS, Design, load_design, save_design
 from sensor.design_space.optimise import (
     RANGE_TOLERANCE,
     DesignProblem,
@@ -24,7 +24,7 @@ from sensor.design_space.reach import reachable_range
 from sensor.errors import DesignError
 
 RANGES = (0.5, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0)
-ALL = (tuple(range(1, 13)),)
+ALL = (Design().used_hinges,)
 
 
 def equal_hinge_scan(problem: DesignProblem, step_deg: float = 2.0):
