@@ -468,7 +468,7 @@ def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
         err = pt.log_range_error
         if abs(err) <= 1e-7:
             break
-        # range ~ t^3 in each free group's share: a Newton step on the common log factor
+        # a Newton step on the free groups' common log factor (forward-difference slope)
         h = 1e-5
         z2 = z.copy()
         z2[k:][free] += h
@@ -504,8 +504,9 @@ def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
 
 @dataclass(frozen=True)
 class DesignResult:
-    """The optimiser's answer: the written design, its strain energy (mJ), hysteresis and
-    stress utilisation, the reachable interval, how many bodies were evaluated, in how long."""
+    """The optimiser's answer: the written design, its hysteresis and stress utilisation, the
+    reachable interval (N; NaN unless the search needed it), the solves of the search (starts
+    and SLSQP; the acceptance's few are not counted) and its wall time (s)."""
 
     design: Design
     problem: DesignProblem
