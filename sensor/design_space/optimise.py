@@ -255,6 +255,10 @@ def solve_designs(designs: list[Design], travel_mm: float):
     (None, error message)."""
     models, idx, out = [], [], [None] * len(designs)
     for n, d in enumerate(designs):
+        if max(d.used_thickness_mm) > d.link_width_mm:   # a neck wider than its link: no body
+            out[n] = (None, f"geometry: a hinge of {max(d.used_thickness_mm):.4g} mm is thicker than the link "
+                            f"({d.link_width_mm:g} mm)")
+            continue
         try:
             models.append(build_beam_model(d))
             idx.append(n)
@@ -322,10 +326,11 @@ class _Local:
         u = np.asarray(u, dtype=float)
         key = u.tobytes()
         if key not in self.grads:
-            U = u + FD_STEP * np.eye(len(u))
+            step = np.where(u + FD_STEP <= 1.0, FD_STEP, -FD_STEP)   # backward at the upper bound
+            U = u + np.diag(step)
             vals = np.array([self._values(pt) for pt in evaluate(self.p, self.p.from_unit(U))])
             self.solves += len(U)
-            self.grads[key] = (vals - self.at(u)).T / FD_STEP
+            self.grads[key] = (vals - self.at(u)).T / step
         return self.grads[key]
 
     def run(self, u0, equality: bool = True):
@@ -469,7 +474,7 @@ def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
         if abs(err) <= 1e-7:
             break
         # a Newton step on the free groups' common log factor (forward-difference slope)
-        h = 1e-5
+        h = -1e-5                         # thinning: never past the upper bound
         z2 = z.copy()
         z2[k:][free] += h
         slope = (evaluate(problem, z2[None])[0].log_range_error - err) / h

@@ -80,10 +80,10 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
     def at(u):
         key = np.asarray(u).tobytes()
         if key not in cache:
-            n = len(u)
-            U = np.vstack([u, u + ROBUST_FD_STEP * np.eye(n)])
+            step = np.where(u + ROBUST_FD_STEP <= 1.0, ROBUST_FD_STEP, -ROBUST_FD_STEP)
+            U = np.vstack([u, u + np.diag(step)])
             vals = np.array([_values(problem, zd, problem.from_unit(x), min_yield) for x in U])
-            cache[key] = (vals[0], (vals[1:] - vals[0]).T / ROBUST_FD_STEP)
+            cache[key] = (vals[0], (vals[1:] - vals[0]).T / step)
         return cache[key]
 
     u0 = np.clip(problem.to_unit(problem.variables(nominal)), 0, 1)
