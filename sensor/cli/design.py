@@ -43,7 +43,7 @@ def register(subparsers) -> None:
     p.add_argument("--hinge-min", type=float, metavar="MM",
                    help=f"thinnest drawn hinge, mm (default the process minimum, {WATER_JET.min_drawn_hinge_mm:g})")
     p.add_argument("--hinge-max", type=float, metavar="MM",
-                   help="thickest hinge, mm (default the link width, 2)")
+                   help="thickest hinge, mm (default half the link width, 1)")
     p.add_argument("--robust", action="store_true",
                    help="also the robust design: lowest median H of the parts as cut with "
                         "P(stress > allowable) <= 5 %%, range 5-95 %% band inside +-10 %% and --min-yield")

@@ -46,6 +46,10 @@ from sensor.mechanics.solver import SolverOptions, solve_batch
 from sensor.mechanics.stress import hinge_stresses, stress_check
 from sensor.validation import Number
 
+#: Default thickest hinge, as a fraction of the link width: a hinge is a neck of its link.
+#: Thicker necks leave no room for the jet's root fillets, and their roots poke out of the
+#: bodies they join (the top hinges at phi1 = 32.8 deg leave the footprint from 1.2 mm on).
+HINGE_MAX_PER_LINK = 0.5
 #: Mirror-symmetric hinge pairs of Figure 48 (hinge numbers; DESIGN section 3).
 PAIRS = ((1, 8), (2, 7), (3, 6), (4, 5), (9, 12), (10, 11))
 BASIS_PAIRS = PAIRS[:4]
@@ -111,7 +115,7 @@ class DesignProblem:
         if self.hinge_min_mm is None:
             object.__setattr__(self, "hinge_min_mm", self.process.min_drawn_hinge_mm)
         if self.hinge_max_mm is None:
-            object.__setattr__(self, "hinge_max_mm", ref.link_width_mm)
+            object.__setattr__(self, "hinge_max_mm", HINGE_MAX_PER_LINK * ref.link_width_mm)
         for name in ("hinge_min_mm", "hinge_max_mm"):
             _THICKNESS.check(name, getattr(self, name), DesignError)
         if self.hinge_min_mm < ref.min_feature_mm:
@@ -504,7 +508,23 @@ def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
     if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
         return False, f"hinges {t.min():.4f}-{t.max():.4f} mm outside {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g}"
     fail = check_design(design).first_failure
-    return (True, "") if fail is None else (False, f"{fail.rule}: {fail.message}")
+    if fail is not None:
+        return False, f"{fail.rule}: {fail.message}"
+    return _profile_inside(design)
+
+
+def _profile_inside(design: Design) -> tuple[bool, str]:
+    """Whether the cut profile (the CAD face, roots included) stays in the footprint: the
+    feasibility rules check the parts with the hinges cut back to their flexible length."""
+    from geometry.cad import profile_face
+
+    bb = profile_face(design).BoundingBox()
+    tol = 1e-6
+    if (bb.xmin < -design.width_mm / 2 - tol or bb.xmax > design.width_mm / 2 + tol
+            or bb.ymin < -tol or bb.ymax > design.height_mm + tol):
+        return False, (f"profile spans x [{bb.xmin:.2f}, {bb.xmax:.2f}], y [{bb.ymin:.2f}, {bb.ymax:.2f}] mm: "
+                       f"outside the footprint {design.width_mm:g} x {design.height_mm:g} mm")
+    return True, ""
 
 
 @dataclass(frozen=True)
