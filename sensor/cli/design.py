@@ -43,7 +43,7 @@ def register(subparsers) -> None:
     p.add_argument("--hinge-min", type=float, metavar="MM",
                    help=f"thinnest drawn hinge, mm (default the process minimum, {WATER_JET.min_drawn_hinge_mm:g})")
     p.add_argument("--hinge-max", type=float, metavar="MM",
-                   help="thickest hinge, mm (default half the link width, 1)")
+                   help="thickest hinge, mm (default 0.4 x the link width, 0.8)")
     p.add_argument("--robust", action="store_true",
                    help="also the robust design: lowest median H of the parts as cut with "
                         "P(stress > allowable) <= 5 %%, range 5-95 %% band inside +-10 %% and --min-yield")
@@ -52,7 +52,8 @@ def register(subparsers) -> None:
     p.add_argument("--draws", type=int, default=200, metavar="N",
                    help="Monte Carlo draws of the tolerance report (default 200)")
     p.add_argument("--kerf", type=float, default=WATER_JET.kerf_mm, metavar="MM",
-                   help=f"jet width the DXF is compensated for, mm (default the process kerf, {WATER_JET.kerf_mm:g})")
+                   help=f"jet width the DXF is compensated for, mm (default the process kerf, {WATER_JET.kerf_mm:g}; "
+                        "0: the drawn profile)")
     p.add_argument("--verify", action="store_true",
                    help="also the continuum FE check of the result (nonlinear, at full scale)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
@@ -212,7 +213,7 @@ def _write(args, design, basis, ours: dict, tol) -> dict:
     save_figure(fig, paths["design-drawing.svg"])
     save_figure(fig, paths["design-drawing.png"], dpi=150)
     with tempfile.TemporaryDirectory(dir=args.out) as tmp:
-        (dxf,) = export_design(design, tmp, ["dxf"], kerf_mm=args.kerf)
+        (dxf,) = export_design(design, tmp, ["dxf"], kerf_mm=args.kerf or None)   # 0: the drawing
         shutil.move(dxf, paths["design.dxf"])
     if basis is not None:
         save_design(basis.design, paths["basis.toml"])

@@ -40,7 +40,8 @@ def _end_starts(problem: DesignProblem, corner: float) -> np.ndarray:
 def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False):
     """(smallest, largest) range (N) of the feasible bodies of the problem's family, within
     the stress limit less STRESS_SLACK: the best feasible body each end's searches found
-    (NaN, NaN if none); ``with_bodies``: also the two end designs (a list, empty if none)."""
+    (NaN, NaN if none); ``with_bodies``: also the feasible bodies the searches found whose
+    range is nearest the problem's (a list, empty if none)."""
     p = replace(problem, range_N=1.0)     # the range is the objective here, not a constraint
     jobs = [(p, u, "min_range") for u in _end_starts(p, 0.0)] + [(p, u, "max_range") for u in _end_starts(p, 1.0)]
     runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
@@ -50,7 +51,9 @@ def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False
                   key=lambda pt: pt.log_range_error)
     reach = (float(np.exp(good[0].log_range_error)), float(np.exp(good[-1].log_range_error))) if good else (np.nan, np.nan)
     if with_bodies:
-        return reach, [good[0].design, good[-1].design] if good else []
+        # every feasible body found, nearest the problem's range first: starts for a search
+        near = sorted(good, key=lambda pt: abs(pt.log_range_error - np.log(problem.range_N)))
+        return reach, [pt.design for pt in near[:REACH_STARTS + REACH_GRID]]
     return reach
 
 

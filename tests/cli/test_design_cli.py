@@ -43,7 +43,7 @@ def test_design_json_files_and_solve_reproduces_it(quick, tmp_path, capsys):
 
 @pytest.mark.parametrize("argv,fragment", [
     (["--range", "1000"], "the reachable interval is"),
-    (["--range", "3", "--kerf", "0"], "--kerf = 0"),
+    (["--range", "3", "--kerf", "-1"], "--kerf = -1"),
     (["--range", "3", "--min-yield", "1.5"], "--min-yield = 1.5"),
     (["--range", "-1"], "--range = -1.0"),
     (["--range", "nan"], "--range = nan"),
