@@ -46,8 +46,7 @@ def main():
             gaps[f"{r:g}"] = None
             continue
         res = nominal if r == 5.0 else optimise(DesignProblem(r))
-        h_ref = ref[f"proposed-{r:g}"]["hysteresis"]
-        gaps[f"{r:g}"] = None if h_ref is None else round(100 * (res.hysteresis / h_ref - 1), 3)
+        gaps[f"{r:g}"] = round(100 * (res.hysteresis / ref[f"proposed-{r:g}"]["hysteresis"] - 1), 3)
     hs = [nominal.hysteresis] + [optimise(DesignProblem(5.0, seed=s)).hysteresis for s in range(1, 5)]
     _, sweep_s = timed(run_sweep, SweepSpec(), "bench", workers=1)
     print(json.dumps({"nominal_s": round(nominal_s, 2), "robust_s": round(robust_s, 2),
