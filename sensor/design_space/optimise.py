@@ -558,15 +558,17 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
     best, evaluations = _search(problem, U0, pool, name)
     reach = (math.nan, math.nan)
     if best is None:
-        reach, ends = reachable_range(problem, pool, with_bodies=True)
+        reach, ends, gap = reachable_range(problem, pool, with_bodies=True)
         if not reach[0] * (1 - RANGE_TOLERANCE) <= problem.range_N <= reach[1] * (1 + RANGE_TOLERANCE):
             raise DesignError(unreachable_message(problem, reach))
         more = scale_to_range(problem, np.array([problem.variables(d) for d in ends]), counter=counter)
         best, extra = _search(problem, np.clip(problem.to_unit(more), 0, 1), pool, name)
         evaluations += extra
         if best is None:
-            raise DesignError(f"range_N = {problem.range_N:g}: the search found no {problem.body} body although "
-                              f"{reach[0]:.4g}-{reach[1]:.4g} N is reachable (a fault of the search: please report it)")
+            raise DesignError(f"range_N = {problem.range_N:g}: no {problem.body} body found within the feasibility "
+                              f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable "
+                              f"stress; feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, but the nearest "
+                              f"found are at {gap[0]:.4g} and {gap[1]:.4g} N (the stress limit leaves a gap)")
     h, util, design = best
     return DesignResult(design, problem, h, util, reach, evaluations + counter[0], time.monotonic() - t0)
 

@@ -41,7 +41,9 @@ def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False
     """(smallest, largest) range (N) of the feasible bodies of the problem's family, within
     the stress limit less STRESS_SLACK: the best feasible body each end's searches found
     (NaN, NaN if none); ``with_bodies``: also the feasible bodies the searches found whose
-    range is nearest the problem's (a list, empty if none)."""
+    range is nearest the problem's (a list, empty if none) and the nearest feasible ranges
+    found below and above it. The feasible ranges need not be one interval: the stress limit
+    can leave a gap (the basis body in delrin: about 9-20 N), which these name."""
     p = replace(problem, range_N=1.0)     # the range is the objective here, not a constraint
     jobs = [(p, u, "min_range") for u in _end_starts(p, 0.0)] + [(p, u, "max_range") for u in _end_starts(p, 1.0)]
     runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
@@ -51,9 +53,14 @@ def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False
                   key=lambda pt: pt.log_range_error)
     reach = (float(np.exp(good[0].log_range_error)), float(np.exp(good[-1].log_range_error))) if good else (np.nan, np.nan)
     if with_bodies:
-        # every feasible body found, nearest the problem's range first: starts for a search
-        near = sorted(good, key=lambda pt: abs(pt.log_range_error - np.log(problem.range_N)))
-        return reach, [pt.design for pt in near[:REACH_STARTS + REACH_GRID]]
+        # the feasible bodies found nearest the problem's range (starts for a search), and the
+        # nearest feasible ranges found below and above it (N; NaN if none)
+        target = np.log(problem.range_N)
+        near = sorted(good, key=lambda pt: abs(pt.log_range_error - target))
+        below = [pt.log_range_error for pt in good if pt.log_range_error <= target]
+        above = [pt.log_range_error for pt in good if pt.log_range_error >= target]
+        gap = (float(np.exp(max(below))) if below else np.nan, float(np.exp(min(above))) if above else np.nan)
+        return reach, [pt.design for pt in near[:REACH_STARTS + REACH_GRID]], gap
     return reach
 
 
