@@ -17,8 +17,10 @@ from sensor.validation import Number, is_integer
 
 #: Bounds on a sweep's size, checked before anything is allocated: points per grid axis,
 #: cells of the whole sweep, and solves including Monte-Carlo draws (about a day on 2 cores).
+#: The client grows by about 1.3 kB a cell (1.5 GB at 10^6 cells; README, Performance);
+#: the workers' memory does not grow with the grid.
 MAX_GRID_N = 2000
-MAX_CELLS = 250_000
+MAX_CELLS = 1_000_000
 MAX_SOLVES = 10_000_000
 _ANGLE = Number(0.0, 90.0, lo_open=True, hi_open=True, unit="deg")
 _GRID_N = Number(1, MAX_GRID_N, integer=True)
