@@ -78,7 +78,7 @@ def _check_args(args) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from geometry.checks import check_design
-    from geometry.params import load_design
+    from geometry.params import cut_note, load_design
     from sensor.design_space.execution import task_pool
     from sensor.design_space.optimise import DesignProblem, accept, describe, optimise
     from sensor.design_space.robust import robust
@@ -150,8 +150,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out, indent=1, default=str))
         return 0
-    print(f"range {args.range_N:g} N at {args.travel:g} mm travel: {out['evaluations']} bodies evaluated "
-          f"in {out['seconds']:.1f} s")
+    print(f"range {args.range_N:g} N at {args.travel:g} mm travel ({cut_note(design.kerf_mm)}): "
+          f"{out['evaluations']} bodies evaluated in {out['seconds']:.1f} s")
     rows = [("DACM" + (" robust" if rob else ""), ours)]
     if rob:
         rows.append(("DACM nominal", nominal))
