@@ -207,7 +207,7 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
         msg = f"phi2_deg = {d.phi2_deg:g}: must be <= {lim2:.2f} deg (platform meets the top plate)"
     add("angle_limits", ok, msg)
 
-    used = d.hinge_thickness_mm[:8] if d.is_basis else d.hinge_thickness_mm
+    used = d.used_thickness_mm
     thinnest = min(used)
     which = 1 + list(d.hinge_thickness_mm).index(thinnest)
     webs = {"link_width_mm": d.link_width_mm, "plate_thickness_mm": d.plate_thickness_mm,

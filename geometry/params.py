@@ -24,6 +24,8 @@ from geometry.errors import GeometryError, ParameterError
 from geometry.validation import STEM_RULE, Number, check_fields, is_real, is_stem
 
 N_HINGES = 12
+#: Hinges of the basis body (1-8; the proposed body adds the middle branch's 9-12).
+BASIS_HINGES = 8
 
 #: Named hinge sets of thesis section 6.2.3: in-plane thickness (mm) of hinges 1-8 and 9-12.
 HINGE_SETS: dict[str, tuple[float, float]] = {"05-03": (0.5, 0.3), "03-03": (0.3, 0.3)}
@@ -130,6 +132,17 @@ class Design:
     @property
     def is_basis(self) -> bool:
         return self.phi2_deg is None
+
+    @property
+    def used_hinges(self) -> tuple[int, ...]:
+        """The hinges the body has (Figure 48 numbers): 1-8 for the basis body, 1-12 for the
+        proposed one (hinges 9-12 are the middle branch)."""
+        return tuple(range(1, (BASIS_HINGES if self.is_basis else N_HINGES) + 1))
+
+    @property
+    def used_thickness_mm(self) -> tuple[float, ...]:
+        """The in-plane thicknesses (mm) of :attr:`used_hinges`."""
+        return self.hinge_thickness_mm[:len(self.used_hinges)]
 
     def replace(self, **changes) -> Design:
         """A copy with some fields changed (and validated)."""

@@ -145,7 +145,8 @@ class SweepSpec:
     def family_design(self, phi1: float, thickness_mm: float) -> Design:
         """The basis body at ``phi1`` with hinges 1-8 ``thickness_mm`` thick (9-12 unused)."""
         d = self.design(self.hinge_sets[0], phi1, None)
-        return d.replace(hinge_thickness_mm=(float(thickness_mm),) * 8 + d.hinge_thickness_mm[8:],
+        n = len(d.used_hinges)
+        return d.replace(hinge_thickness_mm=(float(thickness_mm),) * n + d.hinge_thickness_mm[n:],
                          hinge_set="basis-family", name=f"basis-{phi1:g}-{thickness_mm:.4g}")
 
     def to_json(self) -> str:

@@ -130,7 +130,7 @@ def output_paths(design: Design, out_dir: str | Path) -> list[Path]:
 
 def design_rows(design: Design) -> list[Quantity]:
     """The design's main parameters (the full set is the TOML in the inputs section)."""
-    t = design.hinge_thickness_mm[:8] if design.is_basis else design.hinge_thickness_mm
+    t = design.used_thickness_mm
     rows = [Quantity("side-link lean φ1", f"{design.phi1_deg:g}", "deg")]
     if not design.is_basis:
         rows.append(Quantity("middle-link rise φ2", f"{design.phi2_deg:g}", "deg"))
