@@ -129,7 +129,7 @@ FIELD_RULES: dict[str, Number] = {
         "width_mm", "height_mm", "sheet_thickness_mm", "hinge_length_mm", "link_width_mm",
         "plate_thickness_mm", "knee_width_mm", "knee_height_mm", "platform_width_mm",
         "platform_thickness_mm", "fiber_post_width_mm", "fiber_clearance_mm", "min_feature_mm")},
-    "kerf_mm": Number(0.0, MAX_KERF_MM, lo_open=True, unit="mm"),
+    "kerf_mm": Number(0.0, MAX_KERF_MM, unit="mm"),
 }
 _MATERIAL_RULES = {"E_MPa": Number(0.0, 1e7, lo_open=True, unit="MPa"),
                    "nu": Number(0.0, 0.5, hi_open=True)}
