@@ -13,7 +13,7 @@ Two parts:
   sweep (0, 0.4, 0.8, 1.2 mm), thick hinges (t / L up to 0.7), the basis family (hinges 1-8
   from 0.3 to 1.25 mm) and ``dacm design``-like bodies (unequal pairs 0.3-0.9 mm, phi1
   15-32, phi2 8-30, delrin and ABS). Each holds the full design (its ``kerf_mm`` the kerf
-  solved), the linear limit at 1 mm output from three meshes (4, 5.66 and 8 across) with
+  solved), the linear limit at 1 mm output from three meshes (3, 4.24 and 6 across) with
   Richardson extrapolation and its stated convergence, the per-hinge FE peak von Mises
   stress at the root fillets at full scale (finest mesh, with its own three-mesh study),
   the nonlinear solve at 1 mm output on the coarsest of the three meshes (with the linear
@@ -55,8 +55,8 @@ NONLINEAR = ("basis", "sample-a", "sample-b", "sample-b-as-cut", "05-03-22-6", "
 
 #: Elements across each hinge of the entries' three meshes (a sqrt(2) ladder) and of their
 #: nonlinear solve (the coarsest).
-ENTRY_MESHES = 8.0
-NONLINEAR_MESH = 4.0
+ENTRY_MESHES = 6.0
+NONLINEAR_MESH = 3.0
 #: An entry is stated converged when the Richardson error of its finest mesh is below this
 #: (percent) on k_out and A: a third of the beam model's 3 % target on k_out.
 CONVERGED_PCT = 1.0
@@ -72,15 +72,15 @@ PAIRS = ((1, 8), (2, 7), (3, 6), (4, 5), (9, 12), (10, 11))
 
 
 def cases():
-    """The drawn-profile cases (``cases`` of the table)."""
-    out = {name: preset(name) for name in PRESETS}
+    """The drawn-profile cases (``cases`` of the table), kerf 0."""
+    out = {name: preset(name).replace(kerf_mm=0.0) for name in PRESETS}
     for h, p1, p2 in CELLS:
         name = f"{h}-{p1}-{p2}"
-        out[name] = make_design(p1, p2, h, name=name)
+        out[name] = make_design(p1, p2, h, name=name, kerf_mm=0.0)
     return out
 
 
-def _body(phi1, phi2, hinges, name, **fields) -> Design:
+def body(phi1, phi2, hinges, name, **fields) -> Design:
     return Design(phi1_deg=phi1, phi2_deg=phi2, hinge_set="custom",
                   hinge_thickness_mm=tuple(float(t) for t in hinges), name=name, **fields)
 
@@ -95,30 +95,30 @@ def _paired(values) -> tuple:
 
 def families() -> dict[str, list[Design]]:
     """The cut-part entries by family, each design carrying the kerf to solve."""
-    d5, b5 = _body(*DESIGN_5N, "design-5N"), _body(*BASIS_5N, "basis-5N")
+    d5, b5 = body(*DESIGN_5N, "design-5N"), body(*BASIS_5N, "basis-5N")
     key = [preset("basis-as-cut"), preset("sample-a-as-cut"), preset("sample-b-as-cut"),
            preset("sample-b"), d5, b5, preset("sample-a"), preset("basis")]
     # a 1.2 mm jet just fits the default 1.2 mm fiber clearance (the cut is degenerate): 1.6
     kerf = [d.replace(kerf_mm=k, name=f"{d.name}-kerf{k:g}", fiber_clearance_mm=max(1.2, k + 0.4))
             for d in (preset("sample-b"), d5, b5) for k in (0.0, 0.4, 1.2)
             if (d.name, k) != ("basis-5N", 1.2)]   # kerf_path: its 1.24 mm hinge 4 would change
-    thick = [_body(22.0, None, (t,) * 8 + (0.5,) * 4, f"thick-basis-22-{t:g}") for t in (1.0, 1.5)]
-    thick += [_body(22.0, 17.2, (1.4,) * 8 + (0.6,) * 4, "thick-22-17.2-1.4-0.6"),
-              _body(28.0, 20.0, (1.0,) * 12, "thick-28-20-1.0"),
-              _body(22.0, None, (1.1,) * 8 + (0.5,) * 4, "thick-basis-22-1.1-L1.6", hinge_length_mm=1.6),
-              _body(22.0, None, (1.3,) * 8 + (0.5,) * 4, "thick-basis-22-1.3-L1.9", hinge_length_mm=1.9),
-              _body(20.0, 15.0, (0.9,) * 8 + (0.6,) * 4, "thick-20-15-0.9-0.6-L1.6", hinge_length_mm=1.6)]
-    basis = [_body(p1, None, (t,) * 8 + (0.5,) * 4, f"basis-{p1:g}-{t:g}")
+    thick = [body(22.0, None, (t,) * 8 + (0.5,) * 4, f"thick-basis-22-{t:g}") for t in (1.0, 1.5)]
+    thick += [body(22.0, 17.2, (1.4,) * 8 + (0.6,) * 4, "thick-22-17.2-1.4-0.6"),
+              body(28.0, 20.0, (1.0,) * 12, "thick-28-20-1.0"),
+              body(22.0, None, (1.1,) * 8 + (0.5,) * 4, "thick-basis-22-1.1-L1.6", hinge_length_mm=1.6),
+              body(22.0, None, (1.3,) * 8 + (0.5,) * 4, "thick-basis-22-1.3-L1.9", hinge_length_mm=1.9),
+              body(20.0, 15.0, (0.9,) * 8 + (0.6,) * 4, "thick-20-15-0.9-0.6-L1.6", hinge_length_mm=1.6)]
+    basis = [body(p1, None, (t,) * 8 + (0.5,) * 4, f"basis-{p1:g}-{t:g}")
              for p1 in (15.0, 22.0, 32.3) for t in (0.3, 0.75, 1.25)]
     rng = np.random.default_rng(23)
-    basis += [_body(float(rng.uniform(15, 32)), None,
+    basis += [body(float(rng.uniform(15, 32)), None,
                     _paired(list(rng.uniform(0.3, 1.25, 4)) + [0.5, 0.5]), f"basis-unequal-{i}")
               for i in range(3)]
     like = []
     for i in range(15):
         phi1, phi2 = round(float(rng.uniform(15, 32)), 2), round(float(rng.uniform(8, 30)), 2)
         mat = MATERIALS["abs" if i % 4 == 3 else "delrin"]
-        like.append(_body(phi1, phi2, _paired(rng.uniform(0.3, 0.9, 6)), f"like-{i}-{mat.name}",
+        like.append(body(phi1, phi2, _paired(rng.uniform(0.3, 0.9, 6)), f"like-{i}-{mat.name}",
                           material=mat))
     return {"key": key, "kerf": kerf, "thick": thick, "basis": basis, "design-like": like}
 
