@@ -235,9 +235,8 @@ def main() -> None:
         todo = entries()
         work = lambda a: entry(*a)  # noqa: E731
         section = "entries"
-    done = _done(section)
     for k, (name, args_) in enumerate(todo.items()):
-        if k % n != i or (args.only and name not in args.only) or (not args.only and name in done):
+        if k % n != i or (args.only and name not in args.only) or (not args.only and name in _done(section)):
             continue
         t0 = time.time()
         try:
