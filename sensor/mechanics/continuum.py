@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from geometry.layout import make_layout, make_parts
-from geometry.params import Design
+from geometry.params import Design, cut_note
 from sensor.errors import ConvergenceError, SensorInputError, SolverError
 
 #: Quadratic elements across each hinge's thickness, per mesh level (the rest of the body
@@ -431,7 +431,9 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
 
     ``mesh`` is a level of :data:`MESH_LEVELS` or a number of elements across each hinge;
     ``kerf_mm`` (default the design's ``kerf_mm``: the part as cut) rounds the re-entrant
-    corners as a jet of that width does (0: the drawn profile of the DXF, sharp corners).
+    corners as a jet of that width does (0: the drawn profile of the DXF, sharp corners);
+    a larger drawn ``root_radius_mm`` of the design rounds them with that radius instead
+    (every re-entrant corner, as :func:`geometry.topology.root_radius_mm` gives the roots).
     Results are reported at the output travel ``target_output_mm`` (linear: scaled to it).
     """
     n_across = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
@@ -443,8 +445,13 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     for name, value in (("target_output_mm", target_output_mm), ("punch_width_mm", punch_width_mm)):
         if not (math.isfinite(value) and value > 0):
             raise SensorInputError(f"{name} = {value!r}: must be a positive finite number (mm)")
+    from geometry.topology import root_radius_mm
+
     kerf = design.kerf_mm if kerf_mm is None else kerf_mm
-    points, triangles = mesh_profile(design, n_across, punch_width_mm, kerf)
+    # the roots' fillet: the jet's, or the drawn root radius where larger (as the beam model
+    # takes it); a jet twice that wide leaves it at every re-entrant corner
+    rounding = 2.0 * root_radius_mm(design.replace(kerf_mm=kerf))
+    points, triangles = mesh_profile(design, n_across, punch_width_mm, rounding)
     pb = _problem(design, points, triangles, plane_strain, punch_width_mm, clamp)
     triangles = pb.basis.mesh.t.T      # skfem sorts each triangle's corners: use its order
     idx, val = _prescribed(pb, 1.0)
@@ -465,7 +472,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     G = _corner_gradients(pb, u)
     vm = _von_mises_of(pb, G, design.material.nu, plane_strain, nonlinear)
     stress, station = {}, {}
-    for h, (zone, s) in sorted(hinge_zones(design, points[triangles], kerf).items()):
+    for h, (zone, s) in sorted(hinge_zones(design, points[triangles], rounding).items()):
         k = np.argmax(np.where(zone, vm, -np.inf))
         stress[h], station[h] = float(vm.flat[k]), float(s.flat[k])
     neck = {h: float(_von_mises_of(pb, _gradients_at(pb, G, xy), design.material.nu, plane_strain,
@@ -655,11 +662,6 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, errors)
 
 
-def profile_label(kerf_mm: float) -> str:
-    """What a prediction is of: "as cut, kerf 0.8 mm", or "as drawn (kerf 0)"."""
-    return f"as cut, kerf {kerf_mm:g} mm" if kerf_mm > 0 else "as drawn (kerf 0)"
-
-
 def verification_to_dict(v: Verification) -> dict:
     """The JSON form of a :class:`Verification` (keys ``fe``, ``beam``, ``errors_pct``,
     ``convergence``, ``mesh``, ``options``)."""
@@ -678,7 +680,7 @@ def verification_to_dict(v: Verification) -> dict:
     return {
         "design": v.design.name,
         "kerf_mm": v.design.kerf_mm,
-        "profile": profile_label(v.design.kerf_mm),
+        "profile": cut_note(v.design.kerf_mm),
         "fe": side(v.fe_summary),
         "beam": side(v.beam),
         "errors_pct": side(v.errors_pct),

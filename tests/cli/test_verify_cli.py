@@ -15,7 +15,7 @@ def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
     assert main(["verify", "--preset", "basis", "--mesh", "coarse", "--kerf", "0", "--json",
                  "--out", str(tmp_path)]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert (out["kerf_mm"], out["profile"]) == (0.0, "as drawn (kerf 0)")
+    assert (out["kerf_mm"], out["profile"]) == (0.0, "as drawn (kerf 0: sharp hinge roots)")
     for side in ("fe", "beam"):
         for key in ("amplification", "k_out_N_per_mm", "strain_energy_mJ", "hinge_stress_MPa",
                     "hinge_peak_stress_MPa"):

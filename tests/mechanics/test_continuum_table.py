@@ -54,8 +54,8 @@ ENTRIES = _DATA.get("entries", {})
 K_TOL_PCT, A_TOL_PCT, STRESS_TOL_PCT = 3.0, 1.5, 15.0
 
 
-def beam_linear(name, root_depth=ROOT_DEPTH_PER_THICKNESS):
-    model = build_beam_model(DESIGNS[name], root_depth_per_thickness=root_depth)
+def beam_linear(name):
+    model = build_beam_model(DESIGNS[name])
     return model, solve(model, target_output_mm=LINEAR_LIMIT_FRACTION)
 
 
