@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from geometry.layout import make_layout, make_parts
-from geometry.params import Design, cut_note
+from geometry.params import FIELD_RULES, Design, cut_note
 from sensor.errors import ConvergenceError, SensorInputError, SolverError
 
 #: Quadratic elements across each hinge's thickness, per mesh level (the rest of the body
@@ -447,6 +447,8 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
             raise SensorInputError(f"{name} = {value!r}: must be a positive finite number (mm)")
     from geometry.topology import root_radius_mm
 
+    if kerf_mm is not None:
+        FIELD_RULES["kerf_mm"].check("kerf_mm", kerf_mm, SensorInputError)
     kerf = design.kerf_mm if kerf_mm is None else kerf_mm
     # the roots' fillet: the jet's, or the drawn root radius where larger (as the beam model
     # takes it); a jet twice that wide leaves it at every re-entrant corner
