@@ -71,8 +71,16 @@ def air_threshold(image: np.ndarray) -> float:
     squares of the image."""
     side = max(2, min(image.shape) // AIR_CORNER_DIVISOR)
     corners = (image[:side, :side], image[:side, -side:], image[-side:, :side], image[-side:, -side:])
-    return float(np.median([np.mean(c, dtype=np.float64) + AIR_SIGMAS * np.std(c, dtype=np.float64)
-                            for c in corners]))
+    return _median(np.array([mean + AIR_SIGMAS * std for mean, std in map(_mean_std, corners)]))
+
+
+def _mean_std(values: np.ndarray) -> tuple[float, float]:
+    """np.mean and np.std (ddof 0) of an array in float64, the same operations as numpy's
+    in the same order (the same numbers to the bit), the sum taken once for both."""
+    mean = np.add.reduce(values, axis=None, dtype=np.float64) / values.size
+    square = np.subtract(values, mean, dtype=np.float64)
+    np.multiply(square, square, out=square)
+    return float(mean), float(np.sqrt(np.add.reduce(square, axis=None, dtype=np.float64) / values.size))
 
 
 def detection_threshold(image: np.ndarray) -> float:
@@ -82,8 +90,13 @@ def detection_threshold(image: np.ndarray) -> float:
     sample = image.ravel()[::4] if image.size >= 4096 else image.ravel()
     n = sample.size - 1
     k_lo, k_hi = int(round(n * BACKGROUND_PERCENTILE / 100)), int(round(n * BRIGHT_PERCENTILE / 100))
-    part = np.partition(sample, (k_lo, k_hi))
-    lo, hi = float(part[k_lo]), float(part[k_hi])
+    # the two order statistics by two single partitions (a third of the time of one partition
+    # at two positions): the k_hi-th first, then the k_lo-th among the values below it
+    part = sample.copy()
+    part.partition(k_hi)
+    below = part[:k_hi] if k_lo < k_hi else part
+    below.partition(k_lo)
+    lo, hi = float(below[k_lo]), float(part[k_hi])
     if not hi > lo:
         raise RoiError("automatic phantom mask: the image is uniform, no phantom to find")
     return min(max(air_threshold(image), lo + FLOOR_FRACTION * (hi - lo)),
@@ -105,34 +118,76 @@ def above(image: np.ndarray, threshold: float) -> np.ndarray:
     return np.greater(image, threshold, signature="dd->?")
 
 
-def fill_holes(mask: np.ndarray) -> np.ndarray:
-    """``mask`` with every background region that does not touch the image border filled.
+#: 4-connectivity, the structure ndimage.label uses by default (given: not rebuilt each call).
+CROSS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
 
-    A hole pixel has mask pixels left and right of it in its row, and above and below it in
-    its column: a mask whose every row, or every column, is one run of pixels has none (a
-    phantom without inserts; no labelling). Otherwise only the bounding box of ``mask``
-    (plus a one-pixel frame) is labelled: a background region inside it that reaches the
-    frame is connected to the outside.
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """``mask`` with every background region that does not touch the image border filled."""
+    return _filled(mask)[0]
+
+
+def _filled(mask: np.ndarray):
+    """:func:`fill_holes` of ``mask``, its bounding box and the :func:`_spans` of the box's
+    rows and columns, from which :func:`_outline` gives the outline of ``mask`` and of the
+    filled mask alike (a hole never holds a row's or a column's outermost pixel).
+
+    A hole pixel lies between mask pixels both in its row and in its column (otherwise its row
+    or column leads straight out), so in a row and a column with a gap. Candidates are looked
+    for where these cross, then labelled in their bounding box (none: no hole, no labelling);
+    a region of candidates is a hole unless it touches a background pixel that is no
+    candidate, which is connected to the outside.
     """
     box = bounding_box(mask)
-    if box is None:
-        return mask.copy()
-    region = mask[box]
-    nonempty_rows, nonempty_cols = np.count_nonzero(region.any(axis=1)), np.count_nonzero(region.any(axis=0))
-    if _runs(region) == nonempty_rows or _runs(region.T) == nonempty_cols:
-        return mask.copy()
-    labels, count = ndimage.label(~np.pad(region, 1))
-    outside = np.zeros(count + 1, dtype=bool)
-    outside[labels[0, 0]] = True  # the frame is one connected background region
-    outside[0] = False  # label 0 is the mask itself
     filled = mask.copy()
-    filled[box] = ~outside[labels[1:-1, 1:-1]]
-    return filled
+    if box is None:
+        return filled, None, None, None
+    region = mask[box]
+    row_first, row_after, row_gaps = row_spans = _spans(region)
+    col_first, col_after, col_gaps = col_spans = _spans(region.T)
+    gap_rows, gap_cols = np.flatnonzero(row_gaps), np.flatnonzero(col_gaps)
+    hits = np.nonzero(_candidates(region, gap_rows[:, None], gap_cols, row_first, row_after,
+                                  col_first, col_after))
+    if hits[0].size == 0:
+        return filled, box, row_spans, col_spans
+    # the candidates' box and one pixel more on each side (a candidate is never on the
+    # region's border, so none lies on this window's)
+    r0, r1 = int(gap_rows[hits[0]].min()) - 1, int(gap_rows[hits[0]].max()) + 2
+    c0, c1 = int(gap_cols[hits[1]].min()) - 1, int(gap_cols[hits[1]].max()) + 2
+    candidates = _candidates(region, np.arange(r0, r1)[:, None], np.arange(c0, c1), row_first,
+                             row_after, col_first, col_after)
+    background = ~region[r0:r1, c0:c1]
+    labels, count = ndimage.label(candidates, CROSS)
+    outside = background & ~candidates
+    touching = np.zeros_like(outside)  # pixels with a 4-neighbour outside
+    touching[1:] |= outside[:-1]
+    touching[:-1] |= outside[1:]
+    touching[:, 1:] |= outside[:, :-1]
+    touching[:, :-1] |= outside[:, 1:]
+    open_label = np.zeros(count + 1, dtype=bool)
+    open_label[0] = True  # label 0: not a candidate
+    open_label[labels[touching]] = True
+    filled[box][r0:r1, c0:c1] |= ~open_label[labels]
+    return filled, box, row_spans, col_spans
 
 
-def _runs(mask: np.ndarray) -> int:
-    """Number of runs of consecutive True pixels along the rows of a 2-D boolean mask."""
-    return int(np.count_nonzero(mask[:, 0])) + int(np.count_nonzero(mask[:, 1:] > mask[:, :-1]))
+def _candidates(region, rows, cols, row_first, row_after, col_first, col_after) -> np.ndarray:
+    """Whether each pixel (rows[i], cols[j]) of ``region`` (index arrays broadcast against
+    each other) is background between mask pixels in both its row and its column."""
+    return (~region[rows, cols] & (cols >= row_first[rows]) & (cols < row_after[rows])
+            & (rows >= col_first[cols]) & (rows < col_after[cols]))
+
+
+def _spans(region: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each row of a 2-D boolean array: the index of its first True pixel, one past its
+    last, and whether a False pixel lies between them (a row without True pixels: an empty
+    span at the end, no gap)."""
+    cols = region.shape[1]
+    any_row = region.any(axis=1)
+    first = np.where(any_row, np.argmax(region, axis=1), cols)
+    after = np.where(any_row, cols - np.argmax(region[:, ::-1], axis=1), cols)
+    counts = np.add.reduce(region.view(np.uint8), axis=1, dtype=np.uint16 if cols <= 65535 else np.intp)
+    return first, after, counts < after - first
 
 
 def largest_component(mask: np.ndarray, near: tuple[float, float] | None = None) -> np.ndarray:
@@ -145,7 +200,7 @@ def largest_component(mask: np.ndarray, near: tuple[float, float] | None = None)
         raise RoiError("automatic phantom mask: no pixel above the threshold")
     region = mask[box]
     # n pixels hold at most n / 2 regions (a checkerboard): 16-bit labels when they suffice
-    labels, count = ndimage.label(region, output=np.uint16 if region.size <= 2 * 65535 else np.int32)
+    labels, count = ndimage.label(region, CROSS, output=np.uint16 if region.size <= 2 * 65535 else np.int32)
     chosen = 0
     if near is not None:
         row, col = int(round(near[0])) - box[0].start, int(round(near[1])) - box[1].start
@@ -175,24 +230,24 @@ def _largest_label(labels: np.ndarray, count: int) -> int:
 def outline_points(mask: np.ndarray) -> np.ndarray:
     """(N, 2) array of (row, col) outline points: the outer edge of the outermost mask pixel
     in each row (left, right) and column (top, bottom)."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
+    box = bounding_box(mask)
+    if box is None:
         return np.empty((0, 2))
-    region = mask[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
-    left, right = _edges(region, rows - rows[0])
-    top, bottom = _edges(np.ascontiguousarray(region.T), cols - cols[0])  # contiguous: fast argmax
-    left, right, top, bottom = left + cols[0], right + cols[0], top + rows[0], bottom + rows[0]
-    rows, cols = rows.astype(float), cols.astype(float)
-    return np.concatenate([np.column_stack([rows, left]), np.column_stack([rows, right]),
-                           np.column_stack([top, cols]), np.column_stack([bottom, cols])])
+    region = mask[box]
+    return _outline(box, _spans(region), _spans(region.T))
 
 
-def _edges(region: np.ndarray, lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Outer pixel edges (fractional index along axis 1) of the first and last True pixel of
-    each row ``lines`` of the 2-D boolean ``region`` (each of these rows holds one)."""
-    first = np.argmax(region, axis=1)[lines] - 0.5
-    last = region.shape[1] - np.argmax(region[:, ::-1], axis=1)[lines] - 0.5
-    return first, last
+def _outline(box: tuple[slice, slice], row_spans, col_spans) -> np.ndarray:
+    """:func:`outline_points` from the :func:`_spans` of the rows and of the columns of the
+    mask's bounding box ``box``."""
+    (row_first, row_after, _), (col_first, col_after, _) = row_spans, col_spans
+    rows, cols = np.flatnonzero(row_first < row_after), np.flatnonzero(col_first < col_after)
+    top, left = box[0].start, box[1].start
+    ends = [line[used] + (offset - 0.5) for line, used, offset in (
+        (row_first, rows, left), (row_after, rows, left), (col_first, cols, top), (col_after, cols, top))]
+    rows, cols = (rows + top).astype(float), (cols + left).astype(float)
+    return np.concatenate([np.column_stack([rows, ends[0]]), np.column_stack([rows, ends[1]]),
+                           np.column_stack([ends[2], cols]), np.column_stack([ends[3], cols])])
 
 
 def _kasa(columns: np.ndarray) -> tuple[float, float, float]:
@@ -301,14 +356,14 @@ def phantom_centroid(image: np.ndarray, near: tuple[float, float]) -> tuple[floa
 
 def _find(image: np.ndarray, near=None) -> tuple[np.ndarray, PhantomFit]:
     threshold = detection_threshold(image)
-    mask = fill_holes(largest_component(above(image, threshold), near))
+    mask, box, row_spans, col_spans = _filled(largest_component(above(image, threshold), near))
     if mask[0].any() and mask[-1].any() and mask[:, 0].any() and mask[:, -1].any():
         raise RoiError(
             f"automatic phantom mask: the region above the threshold {threshold:.4g} reaches all "
             "four edges of the image; no phantom found (a slice of noise, or a phantom larger "
             "than the field of view)"
         )
-    points = outline_points(mask)
+    points = _outline(box, row_spans, col_spans)
     (row, col, radius), circle_in = fit_circle(points)
     (top, bottom, left, right), rect_in = fit_rectangle(points)
     centroid = _centroid(mask)
@@ -322,7 +377,11 @@ def _find(image: np.ndarray, near=None) -> tuple[np.ndarray, PhantomFit]:
 
 def _centroid(mask: np.ndarray) -> tuple[float, float]:
     """(row, col) centroid of a non-empty boolean mask, from its row and column counts."""
-    rows, cols = np.count_nonzero(mask, axis=1), np.count_nonzero(mask, axis=0)
-    total = rows.sum()
+    # counts by an integer sum of the bytes (np.count_nonzero along an axis copies the mask);
+    # 16-bit counters hold any row or column of up to 65535 pixels
+    counts = mask.view(np.uint8)
+    dtype = np.uint16 if max(mask.shape) <= 65535 else np.intp
+    rows, cols = np.add.reduce(counts, axis=1, dtype=dtype), np.add.reduce(counts, axis=0, dtype=dtype)
+    total = int(rows.sum(dtype=np.intp))
     return (float(np.dot(np.arange(rows.size), rows) / total),
             float(np.dot(np.arange(cols.size), cols) / total))

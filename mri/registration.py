@@ -47,7 +47,25 @@ def _binned(image: np.ndarray) -> np.ndarray:
     out = np.add(even[0::2, 0::2], even[1::2, 0::2], dtype=np.float64)
     out += even[0::2, 1::2]
     out += even[1::2, 1::2]
-    return out * 0.25
+    out *= 0.25
+    return out
+
+
+def _gradient(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """np.gradient of a 2-D float64 image (unit spacing: central differences inside,
+    one-sided ones at the edges), the same numbers written straight into the two outputs (no
+    temporaries)."""
+    grads = []
+    for axis in (0, 1):
+        f = np.moveaxis(image, axis, 0)
+        out = np.empty_like(image)
+        g = np.moveaxis(out, axis, 0)
+        np.subtract(f[2:], f[:-2], out=g[1:-1])
+        g[1:-1] /= 2.0
+        np.subtract(f[1], f[0], out=g[0])
+        np.subtract(f[-1], f[-2], out=g[-1])
+        grads.append(out)
+    return grads[0], grads[1]
 
 
 def shift_and_gain(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float, float]:
@@ -60,18 +78,21 @@ def shift_and_gain(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float, f
     if min(a.shape) >= BIN_FROM_PX:
         gain, dr, dc, offset = shift_and_gain(_binned(a), _binned(b))
         return gain, 2 * dr, 2 * dc, offset
-    a, b = a.astype(np.float64), b.astype(np.float64)
-    mean = (a + b) / 2
-    columns = (-mean, *np.gradient(mean))
-    diff = a - b
+    # four slice-sized arrays at most (fresh memory costs a page fault per 4 kB): the mean's
+    # column -m enters by its sign (the sums of -m are those of m negated, to the bit)
+    mean = np.add(a, b, dtype=np.float64)
+    mean /= 2
+    diff = np.subtract(a, b, dtype=np.float64)
+    del a, b  # the binned copies go here
+    columns, signs = (mean, *_gradient(mean)), (-1.0, 1.0, 1.0)
     gram = np.empty((4, 4))
     rhs = np.empty(4)
     for i, x in enumerate(columns):
         for j in range(i, 3):
-            gram[i, j] = gram[j, i] = np.einsum("ij,ij->", x, columns[j])
-        gram[i, 3] = gram[3, i] = x.sum()
-        rhs[i] = np.einsum("ij,ij->", x, diff)
-    gram[3, 3], rhs[3] = a.size, diff.sum()
+            gram[i, j] = gram[j, i] = signs[i] * signs[j] * np.einsum("ij,ij->", x, columns[j])
+        gram[i, 3] = gram[3, i] = signs[i] * x.sum()
+        rhs[i] = signs[i] * np.einsum("ij,ij->", x, diff)
+    gram[3, 3], rhs[3] = mean.size, diff.sum()
     if not (np.isfinite(gram).all() and np.isfinite(rhs).all()):
         return (math.nan,) * 4  # pixels near 1e154 overflow the sums: nothing to fit
     # float64 absorbs the squared condition number of four columns; lstsq for a singular one
@@ -87,7 +108,7 @@ def fit_difference(a: np.ndarray, b: np.ndarray, phantom: np.ndarray) -> Differe
     gain, dr, dc, offset = shift_and_gain(a, b)
     a, b = a.astype(np.float64), b.astype(np.float64)
     mean = (a + b) / 2
-    grad_r, grad_c = np.gradient(mean)
+    grad_r, grad_c = _gradient(mean)
     d = a - b
     residual = d - (-gain * mean + dr * grad_r + dc * grad_c + offset)
     edge = ndimage.binary_dilation(phantom, iterations=2) & ~ndimage.binary_erosion(phantom, iterations=2)

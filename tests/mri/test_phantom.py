@@ -16,7 +16,21 @@ import pytest
 from scipy import ndimage
 
 from mri.errors import BoxOutsidePhantomError
-from mri.phantom import _median, above, fill_holes, find_phantom, fit_circle, largest_component, outline_points
+from mri.phantom import (
+    AIR_CORNER_DIVISOR,
+    AIR_SIGMAS,
+    CEILING_FRACTION,
+    FLOOR_FRACTION,
+    _median,
+    above,
+    air_threshold,
+    detection_threshold,
+    fill_holes,
+    find_phantom,
+    fit_circle,
+    largest_component,
+    outline_points,
+)
 from mri.roi import parse_roi, resolve_roi
 from tests.mri.phantoms import noisy_pair, phantom
 
@@ -126,7 +140,7 @@ def test_flipped_image_gives_the_flipped_layout():
 
 
 def test_fill_holes_and_largest_component_match_scipy():
-    # fill_holes labels only the bounding box (faster); it must equal scipy's fill.
+    # fill_holes labels only the hole candidates (faster); it must equal scipy's fill.
     rng = np.random.default_rng(3)
     for _ in range(5):
         blob = np.zeros((60, 70), dtype=bool)
@@ -150,9 +164,22 @@ def test_largest_component_with_few_regions_and_ties():
     np.testing.assert_array_equal(largest_component(mask), labels == labels[37, 40])
 
 
+def test_fill_holes_equals_scipy_on_random_masks():
+    # many small regions, holes next to open bays, empty rows and columns inside the box:
+    # every case of the candidate test (a gap in both the row and the column) and of the
+    # labelling of candidates; exact equality with scipy's flood of the background
+    rng = np.random.default_rng(5)
+    for k in range(400):
+        mask = rng.random(tuple(rng.integers(2, 30, 2))) < rng.uniform(0.2, 0.9)
+        if k % 2:
+            mask = ndimage.binary_opening(mask)
+        np.testing.assert_array_equal(fill_holes(mask), ndimage.binary_fill_holes(mask))
+
+
 def test_fill_holes_without_labelling_matches_scipy():
-    # masks whose rows (or columns) are single runs skip the labelling: open notches and
-    # bumps are no holes; a ring closed in both directions is refilled by the labelling.
+    # masks without a pixel that has a gap in both its row and its column skip the
+    # labelling: open notches and bumps are no holes; a ring closed in both directions is
+    # refilled by the labelling.
     r, c = np.ogrid[:80, :90]
     disc = (r - 40) ** 2 + (c - 45) ** 2 <= 30**2
     notched = disc & ~((np.abs(c - 45) < 4) & (r < 30))  # open at the top: rows have 2 runs
@@ -236,3 +263,22 @@ def test_large_slices_are_searched_at_half_resolution_with_the_same_centre():
     mask, fit = find_phantom(a)
     assert mask.shape == a.shape and fit.shape == "circle"
     assert np.hypot(fit.centre_px[0] - 250.3, fit.centre_px[1] - 260.7) < 0.6
+
+
+def test_thresholds_equal_numpys_mean_std_median_and_order_statistics():
+    # the corner mean and std come from one sum and the percentiles from two single
+    # partitions: the same numbers, to the bit, as np.mean, np.std, np.median and a sort
+    rng = np.random.default_rng(8)
+    for shape, dtype in (((64, 64), np.float32), ((256, 200), np.float32), ((37, 50), np.float64)):
+        image = phantom(shape=shape, centre=(shape[0] / 2, shape[1] / 2), radius=min(shape) / 3) + rng.rayleigh(5.0, shape)
+        image = image.astype(dtype)
+        side = min(shape) // AIR_CORNER_DIVISOR
+        corners = [image[:side, :side], image[:side, -side:], image[-side:, :side], image[-side:, -side:]]
+        air = float(np.median([np.mean(c, dtype=np.float64) + AIR_SIGMAS * np.std(c, dtype=np.float64)
+                               for c in corners]))
+        assert air_threshold(image) == air
+        sample = np.sort(image.ravel()[::4] if image.size >= 4096 else image.ravel())
+        n = sample.size - 1
+        lo, hi = float(sample[round(n * 0.01)]), float(sample[round(n * 0.99)])
+        expected = min(max(air, lo + FLOOR_FRACTION * (hi - lo)), lo + CEILING_FRACTION * (hi - lo))
+        assert detection_threshold(image) == expected
