@@ -59,14 +59,14 @@ DOF_NAMES = ("x", "y", "rz")
 #: ``ROOT_DEPTH_PER_FILLET`` x the width its fillets add at the face past each face, less
 #: in a body that is not much deeper than that (a 2 mm plate or knee block under a 1 mm
 #: hinge): ``ROOT_BODY_DEPTHS`` sets where that begins (:func:`root_depth_mm`).
-ROOT_DEPTH_PER_THICKNESS = 0.66
-ROOT_DEPTH_PER_FILLET = 0.47
-ROOT_BODY_DEPTHS = 0.39
+ROOT_DEPTH_PER_THICKNESS = 0.57
+ROOT_DEPTH_PER_FILLET = 0.13
+ROOT_BODY_DEPTHS = 0.56
 #: A root fillet widens the neck faster than the bending stress can spread into it (plane
 #: sections do not stay plane where the section grows steeply): each side's fillet counts
 #: up to ``FILLET_SPREAD_SLOPE`` x the distance from where it meets the neck (a load-spread
 #: angle of about 16 deg), the rest of the arc carries little.
-FILLET_SPREAD_SLOPE = 0.30
+FILLET_SPREAD_SLOPE = 0.26
 #: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
 #: points and taken linear between them: the flexibility integrals of a quarter circle
 #: sampled at 8 points are within 0.1 % of the exact arc's).
