@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 #: The files written to --out.
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
         basis_problem = DesignProblem(**{**kw, "robust_sd_mm": 0.0}, body="basis")
     except DesignError as exc:
         raise DesignError(_flagged(str(exc))) from None
-    claim(args, FILES)
+    claim(args, FILES, exclusive=True)
     with task_pool(args.workers, args.scheduler) as pool, busy(f"design {args.range_N:g} N", args.quiet) as step:
         try:
             step("the DACM")
@@ -81,14 +81,14 @@ def run(args: argparse.Namespace) -> int:
     basis_design = None if basis is None else rounded(basis.best.design, f"basis-{tag}")
     ours = describe(design, problem)
     theirs = None if basis is None else describe(basis_design, basis_problem)
-    make_out_dir(args.out)
     paths = [args.out / f for f in FILES[:3 if basis is None else 4]]
-    save_design(design, paths[0])
-    with atomic_path(paths[1]) as tmp:
-        tmp.write_text(json.dumps(ours["datasheet"], indent=1))
-    save_figure(profile_figure(design), paths[2], dpi=150)
-    if basis is not None:
-        save_design(basis_design, paths[3])
+    with staged(args) as stage:
+        save_design(design, stage / FILES[0])
+        with atomic_path(stage / FILES[1]) as tmp:
+            tmp.write_text(json.dumps(ours["datasheet"], indent=1))
+        save_figure(profile_figure(design), stage / FILES[2], dpi=150)
+        if basis is not None:
+            save_design(basis_design, stage / FILES[3])
     keys = ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",
             "strain_energy_mJ", "stress_utilisation")
     out = {k: ours[k] for k in keys}

@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 from sensor.cli.design_args import add_design_arguments, design_from_args
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 
 COLUMNS = ("force,displacement", "force,volts")
 
@@ -66,8 +66,8 @@ def run(args: argparse.Namespace) -> int:
         law = fit_law(loop, fit.strain_energy_mJ)
         calibrated = design.replace(material=dataclasses.replace(design.material, E_MPa=fit.E_MPa),
                                     name=f"{design.name}-calibrated")
-        make_out_dir(args.out)
-        save_design(calibrated, path)
+        with staged(args) as stage:
+            save_design(calibrated, stage / path.name)
         out["calibration"] = {**dataclasses.asdict(fit), "h_per_mJ": law.h_per_mJ,
                               "h_per_mJ_default": DEFAULT_LAW.h_per_mJ, "file": str(path)}
     if args.json:
