@@ -96,6 +96,8 @@ def claim_files(paths_by_flag: dict[str, str | None], force: bool) -> None:
     for flag, path in paths_by_flag.items():
         if path and not Path(path).parent.is_dir():
             raise UsageError(f"{flag} {path}: the folder {Path(path).parent} does not exist")
+        if path and Path(path).is_dir():
+            raise UsageError(f"{flag} {path}: is a folder; give the name of the file to write")
     refuse_existing([Path(p) for p in paths_by_flag.values() if p], force, elsewhere="another path")
 
 

@@ -49,6 +49,12 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+#: Design fields the sweep sets itself, not taken from a --config [design] table.
+SWEPT_FIELDS = {"phi1_deg": "from --phi1 / phi1", "phi2_deg": "from --phi2 / phi2",
+                "hinge_set": "from --hinges / hinges", "hinge_thickness_mm": "from --hinges / hinges",
+                "name": "each cell is named after its angles"}
+
+
 def spec_from_args(args: argparse.Namespace):
     """The sweep settings: defaults, then the TOML file, then the flags."""
     from geometry.errors import GeometryError
@@ -60,8 +66,10 @@ def spec_from_args(args: argparse.Namespace):
     check_run_options(args.workers, args.scheduler)  # before anything is made in --out
     cfg: dict = {}
     if args.config is not None:
+        from sensor.cli.design_args import input_file
+
         try:
-            with open(args.config, "rb") as fh:
+            with open(input_file("--config", args.config), "rb") as fh:
                 cfg = tomllib.load(fh)
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise SweepError(f"{args.config}: malformed TOML: {exc}") from None
@@ -86,6 +94,10 @@ def spec_from_args(args: argparse.Namespace):
 
     if not isinstance(cfg.get("design", {}), dict):
         raise SweepError(f"design = {cfg['design']!r}: must be a table of design fields")
+    swept = sorted(set(cfg.get("design", {})) & set(SWEPT_FIELDS))
+    if swept:
+        raise SweepError(f"--config {args.config}: [design] {swept[0]}: the sweep sets it "
+                         f"({SWEPT_FIELDS[swept[0]]}); remove it from the [design] table")
     try:
         return SweepSpec(
             hinge_sets=tuple(dict.fromkeys(hinges)), phi1=phi1, phi2=phi2,
