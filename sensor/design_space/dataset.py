@@ -169,7 +169,7 @@ def save_dataset(ds: xr.Dataset, path: Path) -> None:
     leaves the old file; HDF5 writing to a full disk itself would crash the process)."""
     from geometry.atomic import write_bytes
 
-    check_dataset(ds, str(path))
+    check_dataset(ds, str(path), stored_checksums=False)  # they are replaced now
     out = ds.copy()
     out.attrs["row_sha256"] = json.dumps(row_checksums(ds))
     for k in ("reason", "basis_reason"):
@@ -211,9 +211,10 @@ def _canonical(values: np.ndarray) -> bytes:
 AMPLIFICATION_OVER_KINEMATIC = 1.5
 
 
-def check_dataset(ds: xr.Dataset, where: str) -> None:
+def check_dataset(ds: xr.Dataset, where: str, stored_checksums: bool = True) -> None:
     """Raise :class:`SweepError` (naming ``where`` and the first bad cell) when the dataset
-    contradicts itself: a row that does not match its stored checksum, a cell flagged
+    contradicts itself: a row that does not match its stored checksum (unless
+    ``stored_checksums`` is False: the data was changed since it was read), a cell flagged
     feasible that is not computed or whose values are not finite, a ratio that is not the
     quotient it names, or an amplification outside (0, 1.5 A_kin]."""
     from geometry.layout import kinematic_amplification
@@ -224,7 +225,7 @@ def check_dataset(ds: xr.Dataset, where: str) -> None:
         return SweepError(f"{where}: {what} at {cell}: the dataset is corrupt; remove it "
                           "(or use another --out) and run the sweep again")
 
-    stored = ds.attrs.get("row_sha256")
+    stored = ds.attrs.get("row_sha256") if stored_checksums else None
     if stored is not None:
         try:
             stored = json.loads(stored)
