@@ -134,6 +134,6 @@ def rounded(design, name: str):
 
 def _flagged(message: str) -> str:
     """A library message with its fields named as the flags that set them."""
-    for field, flag in FLAGS.items():
-        message = message.replace(f"{field} = ", f"{flag} = ")
-    return message
+    from sensor.cli.design_args import flagged
+
+    return flagged(message, FLAGS)
