@@ -8,7 +8,7 @@ import dataclasses
 import json
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, flagged
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
 
@@ -98,9 +98,9 @@ def run(args: argparse.Namespace) -> int:
         require_finite(f"datasheet of {design.name}", values)
         if files:
             step("plots")
-            make_out_dir(args.out)
-            save_figure(intensity_figure(sensor, ds, args.tolerance), files[0])
-            save_figure(calibration_figure(sensor, ds), files[1])
+            with staged(args) as stage:
+                save_figure(intensity_figure(sensor, ds, args.tolerance), stage / files[0].name)
+                save_figure(calibration_figure(sensor, ds), stage / files[1].name)
     if args.json:
         print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
                           "files": [str(f) for f in files]}, indent=1))
