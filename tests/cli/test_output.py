@@ -100,7 +100,7 @@ EXPORT = ["export", "--preset", "sample-a", "--dxf", "--stl", "--beam-model"]
 
 def test_sigkill_at_any_point_of_the_write_phase_leaves_the_old_or_the_new_set(tmp_path):
     """An export of three files replaces a finished one (--force, another kerf: another DXF)
-    and is killed after its k-th flush, for every k of its write phase. What the next run
+    and is killed after its k-th flush, across its write phase. What the next run
     finds (after it finishes or removes what the killed run left, as claim does) is the old
     set or the new set, each complete and as its manifest says; never a mixture."""
     from sensor.cli.output import recover
@@ -120,7 +120,8 @@ def test_sigkill_at_any_point_of_the_write_phase_leaves_the_old_or_the_new_set(t
     shutil.rmtree(out)
     shutil.copytree(tmp_path / "old", out)
     seen = set()
-    for k in range(1, n + 1):
+    # every other flush, and each of the last three (the commit point and the moves)
+    for k in sorted(set(range(1, n + 1, 2)) | {n - 2, n - 1, n}):
         shutil.rmtree(out)
         shutil.copytree(tmp_path / "old", out)
         log.write_text("")
@@ -267,3 +268,25 @@ def test_an_exclusive_set_replaces_the_previous_one_whole(dacm, tmp_path):
     assert set(_state(tmp_path)) == {"sweep.nc", "sweep.csv", "pareto-05-03.csv"}
     runs = json.loads(tmp_path.joinpath("sweep-manifest.json").read_text())["runs"]
     assert len(runs) == 1 and runs[0]["argv"][:2] == ["dacm", "sweep"] and "--force" in runs[0]["argv"]
+
+
+def test_ctrl_c_while_the_sweep_writes_its_set_keeps_every_cell_for_resume(tmp_path):
+    """Ctrl-C once the sweep writes its files (the first flush in its staging folder): one
+    line, status 130, no file of the set under its final name, and every cell in the
+    checkpoint, so --resume (no --force needed) computes nothing and writes the whole set."""
+    grid = ["sweep", "--phi1", "20:22:2", "--phi2", "20:30:2", "--hinges", "05-03", "--workers", "1",
+            "--quiet", "--no-plots", "--out", tmp_path]
+    log = tmp_path.parent / "events"
+    log.write_text("")
+    proc = _child(*grid, events=log)
+    _wait_for(lambda: ".dacm-staging" in log.read_text(), "first flush of the set", proc)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=PATIENCE_S)
+    assert proc.returncode == 130, err
+    assert err.count("\n") == 1 and "interrupted while writing the files" in err and "--resume" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep-checkpoint.nc"]
+    resumed = _child(*grid, "--resume", "--json")
+    out, err = resumed.communicate(timeout=PATIENCE_S)
+    assert resumed.returncode == 0, err
+    assert json.loads(out)["computed_now"] == 0
+    assert set(_state(tmp_path)) == {"sweep.nc", "sweep.csv", "pareto-05-03.csv"}
