@@ -78,8 +78,12 @@ def atomic_path(path: str | os.PathLike):
     try:
         try:
             yield Path(tmp)
-        except OSError as exc:
-            if exc.errno is None:
+        except WriteError as exc:  # a nested write's: name this file if it named the temporary one
+            if tmp not in str(exc):
+                raise
+            raise WriteError(exc.errno, exc.strerror.replace(tmp, str(target))) from None
+        except OSError as exc:  # a write of this file (or of none named) failed
+            if exc.errno is None or exc.filename not in (None, tmp):
                 raise
             raise write_error(target, exc.errno) from None
         check_complete(Path(tmp), target)
@@ -119,12 +123,16 @@ def fsync_path(path: str | os.PathLike) -> None:
         os.close(fd)
 
 
-def write_error(target: str | os.PathLike, code: int, detail: str = "") -> OSError:
+class WriteError(OSError):
+    """A write that failed, or left its file cut short; the message names the file."""
+
+
+def write_error(target: str | os.PathLike, code: int, detail: str = "") -> WriteError:
     """The one error of a failed write: names the file and the errno (``[Errno 28] No space
     left on device (ENOSPC): cannot write OUT/x.step``)."""
     name = errno.errorcode.get(code, str(code))
-    return OSError(code, f"{os.strerror(code)} ({name}): cannot write {target}"
-                         + (f" ({detail})" if detail else ""))
+    return WriteError(code, f"{os.strerror(code)} ({name}): cannot write {target}"
+                            + (f" ({detail})" if detail else ""))
 
 
 def _cut_short_errno(path: Path) -> int:
@@ -168,13 +176,16 @@ def _parses(loads):
     return check
 
 
-#: How a complete file of each suffix ends: suffix -> check(path) -> bool.
+#: How a complete file of each suffix ends: suffix -> check(path) -> bool. Text formats
+#: whose writers end every line (CSV, TOML) are checked for the final newline: a cut at a
+#: line's end passes; these writers are Python's, which raise on a failed write anyway.
 COMPLETE = {
     ".step": _ends_with(b"END-ISO-10303-21;"), ".stp": _ends_with(b"END-ISO-10303-21;"),
     ".stl": _stl, ".dxf": _ends_with(b"EOF"), ".png": _ends_with(b"IEND\xaeB`\x82"),
     ".svg": _ends_with(b"</svg>"), ".pdf": _ends_with(b"%%EOF"),
     ".html": _ends_with(b"</html>", b"</HTML>"), ".json": _parses(json.loads),
-    ".toml": _parses(tomllib.loads), ".csv": lambda path: _tail(path, 1).endswith(b"\n"),
+    ".toml": lambda path: _tail(path, 1).endswith(b"\n") and _parses(tomllib.loads)(path),
+    ".csv": lambda path: _tail(path, 1).endswith(b"\n"),
 }
 
 
