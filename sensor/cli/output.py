@@ -75,18 +75,15 @@ def check_out_dir(out: Path) -> None:
                          f"after the design): use --out {out.parent}{fmt}, or another folder")
 
 
-def refuse_existing(paths: Iterable[Path], force: bool, hint: str = "",
-                    elsewhere: str = "another --out") -> None:
-    """Raise :class:`UsageError` naming the first of ``paths`` that exists, unless ``force``;
-    ``hint`` is another way out, e.g. ``"--resume to finish it"``."""
+def refuse_existing(paths: Iterable[Path], force: bool, elsewhere: str = "another --out") -> None:
+    """Raise :class:`UsageError` naming the first of ``paths`` that exists, unless ``force``."""
     if force:
         return
     paths = list(paths)
     existing = [p for p in paths if Path(p).exists()]
     if existing:
         more = f" ({len(existing)} of the {len(paths)} files to write do)" if len(existing) > 1 else ""
-        raise UsageError(f"{existing[0]} exists{more}: use --force to replace, "
-                         f"{hint + ', ' if hint else ''}or {elsewhere}")
+        raise UsageError(f"{existing[0]} exists{more}: use --force to replace, or {elsewhere}")
 
 
 def claim_files(paths_by_flag: dict[str, str | None], force: bool) -> None:
@@ -101,8 +98,7 @@ def claim_files(paths_by_flag: dict[str, str | None], force: bool) -> None:
     refuse_existing([Path(p) for p in paths_by_flag.values() if p], force, elsewhere="another path")
 
 
-def claim(args: argparse.Namespace, names: Iterable[str], hint: str = "",
-          exclusive: bool = False) -> list[Path]:
+def claim(args: argparse.Namespace, names: Iterable[str], exclusive: bool = False) -> list[Path]:
     """The paths ``args.out / name`` of the files a command will write, checked by the rule:
     ``--out`` is a folder, no other run holds it (this run locks it until the command ends),
     and none of the files exists as a finished result unless ``--force`` (files no manifest
@@ -113,12 +109,12 @@ def claim(args: argparse.Namespace, names: Iterable[str], hint: str = "",
     run.exclusive = run.exclusive or exclusive
     paths = [args.out / name for name in names]
     remove_unlisted(paths)
-    refuse_existing(paths, args.force, hint)
+    refuse_existing(paths, args.force)
     return paths
 
 
 def make_out_dir(out: Path) -> Path:
-    """Create ``out`` (and its parents) when the first file is about to be written."""
+    """Create ``out`` (and its parents); an ``OSError`` naming it if that fails."""
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -135,7 +131,7 @@ class _Run:
     out: Path
     command: str
     lock_fd: int
-    created: bool                      # the folder did not exist before this run
+    created: list[Path]                # the folders this run made, innermost first
     started: float = field(default_factory=time.time)
     exclusive: bool = False
     staging: Path | None = None
@@ -158,7 +154,7 @@ def _lock(out: Path, command: str) -> _Run:
     key = out.resolve()
     if key in _RUNS:
         return _RUNS[key]
-    created = not out.exists()
+    created = [p for p in (out, *out.parents) if not p.exists()]
     make_out_dir(out)
     path = out / LOCK_NAME
     while True:
@@ -197,7 +193,7 @@ def _holder(fd: int) -> str:
 def _release(run: _Run, ok: bool) -> None:
     """End this run's hold: drop an unfinished staging folder, list files written in place
     (commands that do not stage) in the manifest when the command succeeded, unlock, and
-    remove the folder again if this run made it and left it empty."""
+    remove the folders this run made and left empty."""
     try:
         if run.staging is not None:
             shutil.rmtree(run.staging, ignore_errors=True)
@@ -207,9 +203,11 @@ def _release(run: _Run, ok: bool) -> None:
         with contextlib.suppress(OSError):
             os.unlink(run.out / LOCK_NAME)
         os.close(run.lock_fd)
-        if run.created:
-            with contextlib.suppress(OSError):
-                run.out.rmdir()
+        for folder in run.created:  # those left empty
+            try:
+                folder.rmdir()
+            except OSError:
+                break
 
 
 @contextlib.contextmanager
@@ -328,7 +326,7 @@ def _commit_in_place(run: _Run) -> None:
     from geometry.atomic import fsync_path
 
     files = sorted(p for p in run.out.iterdir() if p.is_file() and not p.name.startswith(".")
-                   and not p.name.endswith("-manifest.json") and p.stat().st_mtime >= run.started - 1)
+                   and not p.name.endswith("-manifest.json") and p.stat().st_mtime >= run.started - 0.05)
     if not files:
         return
     for p in files:
