@@ -63,6 +63,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from geometry.atomic import save_figure
+    from geometry.params import cut_note
     from geometry.checks import assert_feasible
     from sensor.errors import SensorInputError, UsageError
     from sensor.readout.datasheet import cross_axis, datasheet
@@ -102,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
                 save_figure(intensity_figure(sensor, ds, args.tolerance), stage / files[0].name)
                 save_figure(calibration_figure(sensor, ds), stage / files[1].name)
     if args.json:
-        print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
+        print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross), "kerf_mm": design.kerf_mm,
                           "files": [str(f) for f in files]}, indent=1))
         return 0
     rows = [
@@ -120,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
                        f"lateral vs axial input travel; tilt {cross.tilt_deg:+.2f} deg; "
                        "thesis 1.66 % delrin)"),
     ]
-    print(f"{design.name} ({design.material.name})")
+    print(f"{design.name} ({design.material.name}, {cut_note(design.kerf_mm)})")
     for k, v in rows:
         print(f"  {k:<14} {v}")
     for f in files:
