@@ -5,9 +5,15 @@ Why not Otsu and the centroid (the first version, and hazen's fallback): a coil'
 pulls Otsu's threshold into the phantom (dark parts fall out of the mask), and the centroid of
 a mask moves with every notch, insert, air bubble and shaded edge. Here
 
-* the threshold is ``THRESHOLD_FRACTION`` of the way from the background level (1st
-  percentile) to the bright level (99th percentile): a phantom whose darkest part keeps 20 %
-  of its brightest is found whole;
+* the threshold is set against the background noise, not the signal: ``AIR_SIGMAS``
+  standard deviations above the mean of the air, measured in the four corner squares of the
+  image (``1 / AIR_CORNER_DIVISOR`` of its smaller side); the median of the four corners'
+  thresholds is taken, so one corner reaching into the phantom or a ghost does not raise it.
+  Magnitude air (Rayleigh, mean 1.25 sigma, std 0.655 sigma) gives a threshold of 4.5 sigma:
+  a phantom is found whole wherever its signal exceeds about 4.5 times the channel noise,
+  however strong a coil's shading. The threshold is kept between ``FLOOR_FRACTION`` (a
+  noiseless or zero-filled background) and ``CEILING_FRACTION`` (a very noisy image, where
+  4.5 sigma would cut a shaded edge) of the range from the 1st to the 99th percentile;
 * the mask is the largest connected region above it, holes (dark inserts) filled; a region
   that reaches all four image edges is no phantom (noise percolates at such a threshold);
 * the outline is the outermost mask pixel of every row (left and right) and every column
@@ -29,9 +35,15 @@ from scipy import ndimage
 
 from mri.errors import RoiError
 
-#: Threshold = background + THRESHOLD_FRACTION x (bright - background) (1st, 99th percentiles).
-THRESHOLD_FRACTION = 0.2
-#: Percentiles taken as the background and bright levels.
+#: Threshold = mean + AIR_SIGMAS x std of the air in each corner square (side: the image's
+#: smaller side / AIR_CORNER_DIVISOR), median over the four corners.
+AIR_SIGMAS = 5.0
+AIR_CORNER_DIVISOR = 8
+#: Ceiling and floor of the threshold: these fractions of the way from the 1st to the 99th
+#: percentile. The ceiling applies only to images whose phantom edge is within a few sigma
+#: of the air (SNR below ~20); the floor only when the corners hold no noise.
+CEILING_FRACTION, FLOOR_FRACTION = 0.2, 0.05
+#: Percentiles taken as the background and bright levels of the floor.
 BACKGROUND_PERCENTILE, BRIGHT_PERCENTILE = 1.0, 99.0
 #: Outline points further than this (pixels) from a fitted shape are outliers.
 OUTLIER_PX = 1.5
@@ -43,20 +55,30 @@ CIRCLE_REFITS = 3
 class PhantomFit:
     """The phantom found on one slice: centre (row, col) in pixels (fractional), its shape
     ("circle" or "rectangle"), size (radius, or half height and half width, pixels), the
-    fraction of outline points within OUTLIER_PX of the shape, and the threshold used."""
+    fraction of outline points within OUTLIER_PX of the shape, the threshold used and the
+    centroid (row, col) of the filled mask (a second, cruder centre to check the fit by)."""
 
     centre_px: tuple[float, float]
     shape: str
     size_px: tuple[float, ...]
     inlier_fraction: float
     threshold: float
+    centroid_px: tuple[float, float]
+
+
+def air_threshold(image: np.ndarray) -> float:
+    """Mean + AIR_SIGMAS x std of the air, pixel units: the median over the four corner
+    squares of the image."""
+    side = max(2, min(image.shape) // AIR_CORNER_DIVISOR)
+    corners = (image[:side, :side], image[:side, -side:], image[-side:, :side], image[-side:, -side:])
+    return float(np.median([np.mean(c, dtype=np.float64) + AIR_SIGMAS * np.std(c, dtype=np.float64)
+                            for c in corners]))
 
 
 def detection_threshold(image: np.ndarray) -> float:
-    """Background + THRESHOLD_FRACTION x (bright - background), pixel units.
-
-    The percentiles come from a 1-in-4 sample of the pixels (a 0.1 % difference in a
-    percentile moves the threshold far less than the noise does)."""
+    """The phantom's threshold (pixel units): :func:`air_threshold`, kept between
+    FLOOR_FRACTION and CEILING_FRACTION of the way from the background to the bright level
+    (1st, 99th percentiles, from a 1-in-4 sample of the pixels when the image is large)."""
     sample = image.ravel()[::4] if image.size >= 4096 else image.ravel()
     n = sample.size - 1
     k_lo, k_hi = int(round(n * BACKGROUND_PERCENTILE / 100)), int(round(n * BRIGHT_PERCENTILE / 100))
@@ -64,7 +86,8 @@ def detection_threshold(image: np.ndarray) -> float:
     lo, hi = float(part[k_lo]), float(part[k_hi])
     if not hi > lo:
         raise RoiError("automatic phantom mask: the image is uniform, no phantom to find")
-    return lo + THRESHOLD_FRACTION * (hi - lo)
+    return min(max(air_threshold(image), lo + FLOOR_FRACTION * (hi - lo)),
+               lo + CEILING_FRACTION * (hi - lo))
 
 
 def bounding_box(mask: np.ndarray) -> tuple[slice, slice] | None:
@@ -112,18 +135,24 @@ def _runs(mask: np.ndarray) -> int:
     return int(np.count_nonzero(mask[:, 0])) + int(np.count_nonzero(mask[:, 1:] > mask[:, :-1]))
 
 
-def largest_component(mask: np.ndarray) -> np.ndarray:
+def largest_component(mask: np.ndarray, near: tuple[float, float] | None = None) -> np.ndarray:
     """The largest 4-connected region of a boolean mask (an error when it is empty); of
-    regions of equal size, the first in raster order. Only the mask's bounding box is
-    labelled."""
+    regions of equal size, the first in raster order. With ``near`` (row, col), the region
+    holding that pixel when there is one (the same object as in another image of a pair).
+    Only the mask's bounding box is labelled."""
     box = bounding_box(mask)
     if box is None:
         raise RoiError("automatic phantom mask: no pixel above the threshold")
     region = mask[box]
     # n pixels hold at most n / 2 regions (a checkerboard): 16-bit labels when they suffice
     labels, count = ndimage.label(region, output=np.uint16 if region.size <= 2 * 65535 else np.int32)
+    chosen = 0
+    if near is not None:
+        row, col = int(round(near[0])) - box[0].start, int(round(near[1])) - box[1].start
+        if 0 <= row < labels.shape[0] and 0 <= col < labels.shape[1]:
+            chosen = int(labels[row, col])
     component = np.zeros_like(mask)
-    component[box] = labels == _largest_label(labels, count)
+    component[box] = labels == (chosen or _largest_label(labels, count))
     return component
 
 
@@ -141,12 +170,6 @@ def _largest_label(labels: np.ndarray, count: int) -> int:
     values, sizes = np.unique(labels, return_counts=True)
     sizes[values == 0] = 0
     return int(values[int(np.argmax(sizes))])
-
-
-def phantom_mask(image: np.ndarray) -> np.ndarray:
-    """Phantom pixels of a 2-D image: above :func:`detection_threshold`, the largest region,
-    holes filled."""
-    return fill_holes(largest_component(above(image, detection_threshold(image))))
 
 
 def outline_points(mask: np.ndarray) -> np.ndarray:
@@ -243,11 +266,14 @@ def _sides(lines: np.ndarray, edges: np.ndarray, lo: float, hi: float,
 BIN_FROM_PX = 384
 
 
-def find_phantom(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
-    """The filled phantom mask of a 2-D slice and the fit of its outline (see the module)."""
+def find_phantom(image: np.ndarray, near: tuple[float, float] | None = None
+                 ) -> tuple[np.ndarray, PhantomFit]:
+    """The filled phantom mask of a 2-D slice and the fit of its outline (see the module);
+    ``near`` (row, col, pixels) picks the region holding that pixel (the phantom found in the
+    other image of a pair) over the largest one."""
     rows, cols = image.shape
     if min(rows, cols) < BIN_FROM_PX:
-        return _find(image)
+        return _find(image, near)
     even = image[: rows // 2 * 2, : cols // 2 * 2]
     # the 2 x 2 means as three strided additions (a tenth of the time of a reshaped mean),
     # in float64 whatever the image's type
@@ -255,17 +281,27 @@ def find_phantom(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
     binned += even[0::2, 1::2]
     binned += even[1::2, 1::2]
     binned *= 0.25
-    small, fit = _find(binned)
+    small, fit = _find(binned, None if near is None else ((near[0] - 0.5) / 2, (near[1] - 0.5) / 2))
     mask = np.zeros(image.shape, dtype=bool)
     mask[: rows // 2 * 2, : cols // 2 * 2] = small.repeat(2, axis=0).repeat(2, axis=1)
-    centre = (2 * fit.centre_px[0] + 0.5, 2 * fit.centre_px[1] + 0.5)
-    return mask, PhantomFit(centre, fit.shape, tuple(2 * v for v in fit.size_px),
-                            fit.inlier_fraction, fit.threshold)
+
+    def full(point):
+        return (2 * point[0] + 0.5, 2 * point[1] + 0.5)
+
+    return mask, PhantomFit(full(fit.centre_px), fit.shape, tuple(2 * v for v in fit.size_px),
+                            fit.inlier_fraction, fit.threshold, full(fit.centroid_px))
 
 
-def _find(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
+def phantom_centroid(image: np.ndarray, near: tuple[float, float]) -> tuple[float, float]:
+    """The centroid (row, col) of the filled region above :func:`detection_threshold` that
+    holds ``near`` (the largest one otherwise), without fitting its outline: which object the
+    other image of a pair shows."""
+    return _centroid(fill_holes(largest_component(above(image, detection_threshold(image)), near)))
+
+
+def _find(image: np.ndarray, near=None) -> tuple[np.ndarray, PhantomFit]:
     threshold = detection_threshold(image)
-    mask = fill_holes(largest_component(above(image, threshold)))
+    mask = fill_holes(largest_component(above(image, threshold), near))
     if mask[0].any() and mask[-1].any() and mask[:, 0].any() and mask[:, -1].any():
         raise RoiError(
             f"automatic phantom mask: the region above the threshold {threshold:.4g} reaches all "
@@ -275,9 +311,18 @@ def _find(image: np.ndarray) -> tuple[np.ndarray, PhantomFit]:
     points = outline_points(mask)
     (row, col, radius), circle_in = fit_circle(points)
     (top, bottom, left, right), rect_in = fit_rectangle(points)
+    centroid = _centroid(mask)
     if circle_in >= rect_in:
-        fit = PhantomFit((float(row), float(col)), "circle", (radius,), circle_in, threshold)
+        fit = PhantomFit((float(row), float(col)), "circle", (radius,), circle_in, threshold, centroid)
     else:
         fit = PhantomFit(((top + bottom) / 2, (left + right) / 2), "rectangle",
-                         ((bottom - top) / 2, (right - left) / 2), rect_in, threshold)
+                         ((bottom - top) / 2, (right - left) / 2), rect_in, threshold, centroid)
     return mask, fit
+
+
+def _centroid(mask: np.ndarray) -> tuple[float, float]:
+    """(row, col) centroid of a non-empty boolean mask, from its row and column counts."""
+    rows, cols = np.count_nonzero(mask, axis=1), np.count_nonzero(mask, axis=0)
+    total = rows.sum()
+    return (float(np.dot(np.arange(rows.size), rows) / total),
+            float(np.dot(np.arange(cols.size), cols) / total))

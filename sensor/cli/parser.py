@@ -10,7 +10,7 @@ import re
 
 #: Command modules, in the order ``dacm --help`` lists them.
 COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "design", "sensor", "measure", "report",
-            "snr", "line", "loop")
+            "snr", "line", "loop", "artefact")
 
 
 def did_you_mean(word: str, choices) -> str:

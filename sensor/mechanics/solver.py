@@ -301,7 +301,11 @@ def _member_flexibility(topo: Topology, models: list[BeamModel], L0, t, b, E, G)
     if not cols:
         return C
     members = topo.flex[cols]
-    st = np.array([[m.profile_mm[k] for k in members] for m in models])          # (B, h, k, 2)
+    # members may have different numbers of stations (a split member's pieces): pad with
+    # zero-length segments at the end, which add nothing to the integrals
+    k_max = max(len(m.profile_mm[k]) for m in models for k in members)
+    st = np.array([[np.pad(m.profile_mm[k], ((0, k_max - len(m.profile_mm[k])), (0, 0)), mode="edge")
+                    for k in members] for m in models])                         # (B, h, k, 2)
     st[..., 0] *= (L0[:, cols] / st[..., -1, 0])[..., None]
     C[:, cols] = profile_flexibility(st, b[:, cols], E, G)
     return C

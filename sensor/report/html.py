@@ -99,12 +99,12 @@ def file_record(path: str | os.PathLike, root: str | os.PathLike) -> FileRecord:
     return FileRecord(path.relative_to(root).as_posix(), path.stat().st_size, digest)
 
 
-def software_versions() -> dict[str, str]:
-    """Versions of dacm, Python, the platform and :data:`REPORTED_LIBRARIES` (as installed;
-    "not installed" for a library that is absent)."""
+def software_versions(libraries: tuple[str, ...] | None = None) -> dict[str, str]:
+    """Versions of dacm, Python, the platform and ``libraries`` (default
+    :data:`REPORTED_LIBRARIES`; as installed, "not installed" for one that is absent)."""
     out = {"dacm": importlib.metadata.version("dacm"), "python": platform.python_version(),
            "platform": platform.platform()}
-    for name in REPORTED_LIBRARIES:
+    for name in REPORTED_LIBRARIES if libraries is None else libraries:
         try:
             out[name] = importlib.metadata.version(name)
         except importlib.metadata.PackageNotFoundError:

@@ -21,7 +21,7 @@ import numpy as np
 from mri.io import load_image
 from mri.pair import check_pair
 from mri.roi import parse_roi
-from mri.snr import DEFAULT_ROIS, measure_pair
+from mri.snr import DEFAULT_ROIS, measure_arrays
 
 REAL = Path(__file__).resolve().parents[1] / "data" / "mri" / "siemens_aera_pair"
 SPECS = {method: (parse_roi(DEFAULT_ROIS[method]),) for method in ("thesis", "nema")}
@@ -30,7 +30,7 @@ SPECS = {method: (parse_roi(DEFAULT_ROIS[method]),) for method in ("thesis", "ne
 def files_to_snr(path_a, path_b):
     a, b = load_image(path_a), load_image(path_b)
     check_pair(a, b)
-    return measure_pair(a.pixels, b.pixels, a.pixel_spacing_mm, SPECS)
+    return measure_arrays(a.pixels, b.pixels, a.pixel_spacing_mm, SPECS)
 
 
 def median_s(repeats: int, fn, *args) -> tuple[float, float]:

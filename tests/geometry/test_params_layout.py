@@ -115,7 +115,7 @@ def test_hinge_numbering_follows_figure48():
 def test_link_angles_equal_phi1_phi2(phi1, phi2):
     m = build_beam_model(make_design(phi1, phi2))
     for i, kind in enumerate(m.member_kind):
-        if kind != "link" or m.member_name[i].startswith("top plate"):
+        if kind != "link" or m.member_name[i].startswith(("top plate", "platform")):
             continue
         a, b = m.nodes[m.member_nodes[i]]
         v = b - a

@@ -3,8 +3,8 @@ air bubble, with inserts, rectangles) and against the centre hazen pins for the 
 
 Tolerance: 0.6 px on the centre. The outline is found to the pixel and a circle fit over
 ~700 outline points averages that quantisation down; partial-volume edge pixels under strong
-shading move the outline by up to ~0.3 px on the dark side (the threshold is a fixed
-fraction of the bright level), and a rectangle's sides are medians of whole pixels (+-0.5 px).
+shading move the outline by up to ~0.3 px on the dark side (a pixel joins the mask when its
+share of the edge lifts it over the threshold, which is set by the air's noise), and a rectangle's sides are medians of whole pixels (+-0.5 px).
 The naive method (Otsu mask, holes filled, centroid) is run on the same images to show that
 the cases are hard: it misses by 2-8 px.
 """
@@ -72,22 +72,49 @@ def test_nema5_boxes_are_measured_on_a_dark_centre_and_an_insert():
     assert [r.n_pixels for r in rois] == [400] * 5
 
 
-def test_a_box_that_truly_leaves_the_phantom_is_refused_with_the_boxes_to_draw():
+def test_a_given_layout_that_leaves_the_phantom_is_refused_with_the_boxes_to_draw():
     a, _ = noisy_pair(phantom(centre=CENTRE, radius=45.0), 20.0, seed=4)
     with pytest.raises(BoxOutsidePhantomError, match="upper-left, lower-left, upper-right, "
                        "lower-right box") as info:
-        resolve_roi(parse_roi("nema5"), a, None)
+        resolve_roi(parse_roi("nema5:20:40"), a, None)
     assert len(info.value.rois) == 5 and info.value.fit.shape == "circle"
     # the same boxes fit once they are brought in
     assert len(resolve_roi(parse_roi("nema5:20:20"), a, None)) == 5
 
 
-def test_a_box_over_a_notch_is_refused():
+def test_the_default_layout_shrinks_to_the_largest_that_fits_and_says_so():
+    # radius 45: 20 px boxes fit at offset o when (o + 10) sqrt 2 <= ~45, i.e. o <= 21
+    a, _ = noisy_pair(phantom(centre=CENTRE, radius=45.0), 20.0, seed=4)
+    rois = resolve_roi(parse_roi("nema5"), a, None)
+    note = rois[0].note
+    assert note.code == "boxes_shrunk" and note.values["size_px"] == 20
+    assert 18 <= note.values["offset_px"] <= 22, note
+    assert all(r.box[2:] == (20, 20) for r in rois) and all(r.note is None for r in rois[1:])
+    # every box inside the disc (corner distance from the true centre below the radius)
+    for r in rois:
+        row, col, h, w = r.box
+        corners = [(row - 0.5 + dr, col - 0.5 + dc) for dr in (0, h) for dc in (0, w)]
+        assert max(np.hypot(y - CENTRE[0], x - CENTRE[1]) for y, x in corners) <= 45.0 + 0.5
+
+
+def test_a_phantom_too_small_for_five_px_boxes_is_refused():
+    # radius 9 px: five 5 px boxes (centre and diagonals) need about 2.5 x 5 sqrt 2 = 17.7 px
+    a, _ = noisy_pair(phantom(shape=(64, 64), centre=(31.3, 32.6), radius=9.0), 20.0, seed=4)
+    with pytest.raises(BoxOutsidePhantomError, match="even 5 x 5 px boxes do not fit"):
+        resolve_roi(parse_roi("nema5"), a, None)
+
+
+def test_a_box_over_a_notch_is_refused_or_brought_in():
     # A notch cut 30 px into the upper right: the upper-right box (rows 72-91, cols 164-183)
-    # falls into the air of the notch.
+    # falls into the air of the notch. The given layout is refused; the default one moves
+    # its boxes inwards, clear of the notch.
     a, _ = noisy_pair(phantom(centre=CENTRE, notch=(45, 50, 40)), 20.0, seed=5)
     with pytest.raises(BoxOutsidePhantomError, match="the upper-right box"):
-        resolve_roi(parse_roi("nema5"), a, None)
+        resolve_roi(parse_roi("nema5:20:40"), a, None)
+    mask, _ = find_phantom(a)
+    rois = resolve_roi(parse_roi("nema5"), a, None)
+    assert rois[0].note.code == "boxes_shrunk" and rois[0].note.values["offset_px"] < 40
+    assert all(mask[r.box[0]:r.box[0] + r.box[2], r.box[1]:r.box[1] + r.box[3]].all() for r in rois)
 
 
 def test_flipped_image_gives_the_flipped_layout():

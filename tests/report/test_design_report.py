@@ -71,7 +71,7 @@ def test_files_are_listed_with_their_true_size_and_sha256(report):
 
 def test_page_is_self_contained_with_every_picture_readable(report):
     """Nothing but inline style and data: images; every anchor link lands on a section; the
-    four pictures decode (PNG not blank, SVG well-formed)."""
+    six pictures decode (PNG not blank, SVG well-formed)."""
     _, _, rep = report
     tags = start_tags(rep.path.read_text())
     names = {t for t, _ in tags}
@@ -80,7 +80,7 @@ def test_page_is_self_contained_with_every_picture_readable(report):
     hrefs = [a["href"] for t, a in tags if "href" in a]
     assert hrefs and all(h.startswith("#") and h[1:] in ids for h in hrefs), hrefs
     srcs = [a["src"] for t, a in tags if t == "img"]
-    assert len(srcs) == 4
+    assert len(srcs) == 6
     for src in srcs:
         head, data = src.split(",", 1)
         raw = base64.b64decode(data, validate=True)
@@ -102,7 +102,7 @@ def test_page_opens_in_a_real_browser(report, tmp_path):
     ink = np.mean(img.min(axis=2) < 200)            # fraction of pixels that are not paper
     assert 0.02 < ink < 0.9, ink
     assert seen.console == []
-    assert len(seen.images) == 4
+    assert len(seen.images) == 6
     for complete, width, height, src in seen.images:
         assert complete and width > 0 and height > 0, src
     assert elapsed < 20, f"browser check took {elapsed:.1f} s"
@@ -121,7 +121,7 @@ def test_the_browser_check_sees_a_broken_and_a_blocked_image(report, tmp_path):
     page.write_text(spoiled)
     seen = open_in_browser(page, tmp_path / "browser")
     widths = [w for _, w, _, _ in seen.images]
-    assert len(widths) == 5 and widths[0] == 0 and widths[-1] == 0 and all(widths[1:4])
+    assert len(widths) == 7 and widths[0] == 0 and widths[-1] == 0 and all(widths[1:6])
     assert any("example.invalid" in line and "Content Security Policy" in line
                for line in seen.console), seen.console
 
