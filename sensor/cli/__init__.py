@@ -21,6 +21,7 @@ import warnings
 
 from geometry.errors import GeometryError
 from mri.errors import MriError
+from sensor.cli.output import session
 from sensor.cli.parser import build_parser, parse  # noqa: F401 (build_parser: the CLI's public name)
 from sensor.errors import ResourceNote, SensorError, SweepInterrupted, Terminated
 
@@ -77,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parse(argv)
         command = args.command
-        with _orderly_stops(command):
+        with _orderly_stops(command), session(argv):
             return int(args.func(args) or 0)
     except BrokenPipeError:
         # the reader went away (e.g. `dacm ... | head`): stop quietly, as a filter should

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 #: The files written to --out (basis.toml when a basis body reaches the range).
@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         basis_problem = DesignProblem(**kw, body="basis")
     except DesignError as exc:
         raise DesignError(_flagged(str(exc))) from None
-    claim(args, FILES)
+    claim(args, FILES, exclusive=True)
     tag = f"{args.range_N:g}N".replace("+", "")
     with task_pool(args.workers, args.scheduler) as pool, busy(f"design {args.range_N:g} N", args.quiet) as step:
         try:
@@ -192,36 +192,38 @@ def _print_body(label: str, d: dict) -> None:
 
 
 def _write(args, design, basis, ours: dict, tol) -> dict:
-    """Write every file (each atomically); {name: path}."""
+    """Write every file as one set (staged in --out, checked, then moved into place, see
+    sensor.cli.output.staged); {name: final path}."""
     import shutil
-    import tempfile
 
     from geometry.atomic import atomic_path, save_figure
     from geometry.drawing import dimensioned_figure, profile_figure
     from geometry.export import export_design
     from geometry.params import save_design
 
-    make_out_dir(args.out)
-    paths = {name: args.out / name for name in FILES if name != "basis.toml" or basis is not None}
-    save_design(design, paths["design.toml"])
-    with atomic_path(paths["design-datasheet.json"]) as tmp:
-        tmp.write_text(json.dumps(ours["datasheet"], indent=1))
-    with atomic_path(paths["design-tolerance.json"]) as tmp:
-        tmp.write_text(json.dumps({"design": design.name, "tolerance": tol.to_dict()}, indent=1))
-    save_figure(profile_figure(design), paths["design-profile.png"], dpi=150)
-    fig = dimensioned_figure(design, args.kerf)
-    save_figure(fig, paths["design-drawing.svg"])
-    save_figure(fig, paths["design-drawing.png"], dpi=150)
-    with tempfile.TemporaryDirectory(dir=args.out) as tmp:
-        (dxf,) = export_design(design, tmp, ["dxf"], kerf_mm=args.kerf or None)   # 0: the drawing
-        shutil.move(dxf, paths["design.dxf"])
-    if basis is not None:
-        save_design(basis.design, paths["basis.toml"])
-    return paths
+    names = [name for name in FILES if name != "basis.toml" or basis is not None]
+    with staged(args) as stage:
+        save_design(design, stage / "design.toml")
+        with atomic_path(stage / "design-datasheet.json") as tmp:
+            tmp.write_text(json.dumps(ours["datasheet"], indent=1))
+        with atomic_path(stage / "design-tolerance.json") as tmp:
+            tmp.write_text(json.dumps({"design": design.name, "tolerance": tol.to_dict()}, indent=1))
+        save_figure(profile_figure(design), stage / "design-profile.png", dpi=150)
+        fig = dimensioned_figure(design, args.kerf)
+        save_figure(fig, stage / "design-drawing.svg")
+        save_figure(fig, stage / "design-drawing.png", dpi=150)
+        dxf_dir = stage / "dxf"
+        dxf_dir.mkdir()
+        (dxf,) = export_design(design, dxf_dir, ["dxf"], kerf_mm=args.kerf or None)   # 0: the drawing
+        shutil.move(dxf, stage / "design.dxf")
+        dxf_dir.rmdir()
+        if basis is not None:
+            save_design(basis.design, stage / "basis.toml")
+    return {name: args.out / name for name in names}
 
 
 def _flagged(message: str) -> str:
     """A library message with its fields named as the flags that set them."""
-    for field, flag in FLAGS.items():
-        message = message.replace(f"{field} = ", f"{flag} = ")
-    return message
+    from sensor.cli.design_args import flagged
+
+    return flagged(message, FLAGS)

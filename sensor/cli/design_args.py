@@ -9,9 +9,11 @@ a thesis preset (``--preset sample-a``), or a TOML file (``--config design.toml`
 from __future__ import annotations
 
 import argparse
+import os
 import re
 from pathlib import Path
 
+from geometry.errors import GeometryError
 from geometry.params import (
     HINGE_SETS,
     MATERIALS,
@@ -81,7 +83,11 @@ def design_from_args(args: argparse.Namespace) -> Design:
     if args.preset is not None:
         design = preset(args.preset)
     elif args.config is not None:
-        design = load_design(args.config)
+        try:
+            design = load_design(input_file("--config", args.config))
+        except GeometryError as exc:  # name the flag and the file, as every message does
+            message = str(exc).removeprefix(f"{args.config}: ")
+            raise type(exc)(f"--config {args.config}: {message}") from None
         if design.name == "custom":
             design = design.replace(name=_stem(args.config.stem))
     else:
@@ -93,6 +99,28 @@ def design_from_args(args: argparse.Namespace) -> Design:
             design = design.replace(material=MATERIALS[args.material],
                                     name=f"{design.name}-{args.material}")
     return design
+
+
+def input_file(flag: str, path: str | os.PathLike) -> Path:
+    """``path`` of a file flag, checked to be a readable file: raise
+    :class:`~sensor.errors.UsageError` naming the flag when it is missing, a folder or
+    unreadable."""
+    path = Path(path)
+    if not path.exists():
+        raise UsageError(f"{flag} {path}: no such file")
+    if path.is_dir():
+        raise UsageError(f"{flag} {path}: is a folder; give a file")
+    if not os.access(path, os.R_OK):
+        raise UsageError(f"{flag} {path}: cannot be read (permission denied)")
+    return path
+
+
+def flagged(message: str, flags: dict[str, str]) -> str:
+    """A library message with its fields named as the flags that set them
+    (``flags``: field -> flag)."""
+    for name, flag in flags.items():
+        message = message.replace(f"{name} = ", f"{flag} = ")
+    return message
 
 
 def check_flags(args: argparse.Namespace, rules: dict[str, Number]) -> None:

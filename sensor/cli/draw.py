@@ -7,7 +7,7 @@ import argparse
 from geometry.atomic import save_figure
 from geometry.checks import assert_feasible
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.errors import UsageError
 from sensor.validation import Number
 
@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     [path] = claim(args, [f"{design.name}-profile.{args.format}"])
     assert_feasible(design)
     fig = profile_figure(design)
-    make_out_dir(args.out)
-    save_figure(fig, path, dpi=args.dpi)
+    with staged(args) as stage:
+        save_figure(fig, stage / path.name, dpi=args.dpi)
     print(f"wrote {path}")
     return 0

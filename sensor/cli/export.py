@@ -7,7 +7,7 @@ import json
 
 from geometry.params import FIELD_RULES
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
-from sensor.cli.output import add_output_arguments, claim
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 #: Format flags: flag -> (format of geometry.export, what it is).
@@ -44,11 +44,12 @@ def run(args: argparse.Namespace) -> int:
         design = design.replace(kerf_mm=args.kerf)
     formats = [fmt for flag, (fmt, _) in FORMAT_FLAGS.items() if getattr(args, flag)]
     formats = formats or [fmt for fmt, _ in FORMAT_FLAGS.values()]
-    claim(args, [f"{design.name}.{fmt}" for fmt in formats])
+    written = claim(args, [f"{design.name}.{fmt}" for fmt in formats])
     with busy(f"export {design.name}: {', '.join(formats)}", args.quiet):
         from geometry.export import export_design  # CadQuery: load only when used
 
-        written = export_design(design, args.out, formats, kerf_mm=args.kerf)
+        with staged(args) as stage:
+            export_design(design, stage, formats, kerf_mm=args.kerf)
     if args.json:
         print(json.dumps({"design": design.name, "kerf_mm": args.kerf,
                           "files": {fmt: str(p) for fmt, p in zip(formats, written)}}, indent=1))

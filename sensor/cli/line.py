@@ -10,7 +10,7 @@ import argparse
 import json
 import math
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.errors import SensorInputError
 from sensor.pneumatic.lines import LINE_MODELS
@@ -96,9 +96,9 @@ def run(args: argparse.Namespace) -> int:
         from geometry.atomic import save_figure
         from sensor.pneumatic.line_plots import frequency_figure, step_figure
 
-        make_out_dir(args.out)
-        save_figure(frequency_figure(result), files[0], dpi=100)
-        save_figure(step_figure(result), files[1], dpi=100)
+        with staged(args) as stage:
+            save_figure(frequency_figure(result), stage / files[0].name, dpi=100)
+            save_figure(step_figure(result), stage / files[1].name, dpi=100)
     result["files"] = [str(p) for p in files]
     if args.json:
         print(json.dumps(result))

@@ -7,8 +7,8 @@ import dataclasses
 import json
 from pathlib import Path
 
-from sensor.cli.design_args import add_design_arguments, design_from_args
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.design_args import add_design_arguments, design_from_args, input_file
+from sensor.cli.output import add_output_arguments, claim, staged
 
 COLUMNS = ("force,displacement", "force,volts")
 
@@ -44,7 +44,7 @@ def unit_named(figures) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     from geometry.params import save_design
-    from sensor.errors import UsageError
+    from sensor.errors import SolverError, UsageError
     from sensor.mechanics.hysteresis import DEFAULT_LAW
     from sensor.readout.measured import fit_law, fit_modulus, loop_figures, model_loop, read_loop_csv
 
@@ -56,9 +56,13 @@ def run(args: argparse.Namespace) -> int:
                          "on the optics)")
     design = design_from_args(args)
     path = claim(args, [f"{design.name}-calibrated.toml"])[0] if args.calibrate else None
-    loop = read_loop_csv(args.loop, kind)
+    loop = read_loop_csv(input_file("LOOP.csv", args.loop), kind)
     measured = loop_figures(loop)
-    model = loop_figures(model_loop(design, kind, measured.max_force_N, DEFAULT_LAW))
+    try:
+        model = loop_figures(model_loop(design, kind, measured.max_force_N, DEFAULT_LAW))
+    except SolverError as exc:
+        raise UsageError(f"{args.loop}: the model of {design.name} cannot be loaded to the "
+                         f"loop's largest force {measured.max_force_N:g} N ({exc})") from None
     out = {"design": design.name, "loop": str(args.loop), "measured": unit_named(measured),
            "model": unit_named(model), "calibration": None}
     if args.calibrate:
@@ -66,8 +70,8 @@ def run(args: argparse.Namespace) -> int:
         law = fit_law(loop, fit.strain_energy_mJ)
         calibrated = design.replace(material=dataclasses.replace(design.material, E_MPa=fit.E_MPa),
                                     name=f"{design.name}-calibrated")
-        make_out_dir(args.out)
-        save_design(calibrated, path)
+        with staged(args) as stage:
+            save_design(calibrated, stage / path.name)
         out["calibration"] = {**dataclasses.asdict(fit), "h_per_mJ": law.h_per_mJ,
                               "h_per_mJ_default": DEFAULT_LAW.h_per_mJ, "file": str(path)}
     if args.json:

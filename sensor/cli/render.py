@@ -13,7 +13,7 @@ from sensor.cli.design_args import (
     design_from_args,
     travel_rule,
 )
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
 
@@ -80,8 +80,8 @@ def run(args: argparse.Namespace) -> int:
         body = deformed_body(design, model, result, make_parts(make_layout(design)), args.scale)
         step("drawing")
         title, subtitle = _titles(design, result, body)
-        make_out_dir(args.out)
-        render_png(body, out, title, subtitle, window)
+        with staged(args) as stage:
+            render_png(body, stage / out.name, title, subtitle, window)
     if args.json:
         print(json.dumps({"design": design.name, **numbers, "displacement_scale": body.scale,
                           "file": str(out)}, indent=1))

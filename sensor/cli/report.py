@@ -9,7 +9,7 @@ import shlex
 import sys
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
-from sensor.cli.output import add_output_arguments, claim
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 
@@ -43,8 +43,11 @@ def run(args: argparse.Namespace) -> int:
     command = shlex.join(["dacm", *sys.argv[1:]]) if sys.argv[1:2] == ["report"] else ""
     with busy(f"report {design.name}" + ("" if args.no_verify else " (with the continuum "
                                          "verification, about 20 s)"), args.quiet):
-        report = write_design_report(design, args.out, target_output_mm=args.target_output,
-                                     verify=not args.no_verify, command=command, force=args.force)
+        with staged(args) as stage:
+            report = write_design_report(design, stage, target_output_mm=args.target_output,
+                                         verify=not args.no_verify, command=command, force=True)
+    path = args.out / report.path.name
+    report.summary["report"] = str(path)
     if args.json:
         print(json.dumps(report.summary, indent=1))
         return 0
@@ -54,5 +57,5 @@ def run(args: argparse.Namespace) -> int:
           + (f": {v['reason']}" if v["status"] != "run" else ""))
     for f in report.files:
         print(f"wrote {args.out / f.name}")
-    print(f"wrote {report.path}")
+    print(f"wrote {path}")
     return 0

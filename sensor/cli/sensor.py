@@ -7,8 +7,8 @@ import argparse
 import dataclasses
 import json
 
-from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, flagged
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
 
@@ -19,6 +19,9 @@ RULES = {"full_scale": Number(0.0, 1000.0, lo_open=True, unit="mm"),
          "na": Number(0.0, 1.0, lo_open=True),
          "tolerance": Number(0.0, 100.0, lo_open=True, unit="% FS")}
 ADC_VOLTS = Number(-1e3, 1e3, unit="V")
+#: Readout field -> flag, for the one-line errors.
+READOUT_FLAGS = {"sample_rate_Hz": "--sample-rate", "adc_bits": "--adc-bits", "adc_min_V": "--adc-range",
+                 "adc_max_V": "--adc-range", "mode": "--readout", "model": "--optics-model"}
 
 
 def register(subparsers) -> None:
@@ -62,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     from geometry.atomic import save_figure
     from geometry.params import cut_note
     from geometry.checks import assert_feasible
-    from sensor.errors import UsageError
+    from sensor.errors import SensorInputError, UsageError
     from sensor.readout.datasheet import cross_axis, datasheet
     from sensor.readout.optics import OpticsSetup
     from sensor.readout.plots import calibration_figure, intensity_figure
@@ -79,9 +82,12 @@ def run(args: argparse.Namespace) -> int:
         args, [f"{design.name}-intensity.png", f"{design.name}-calibration.png"])
     assert_feasible(design)
     optics = OpticsSetup() if args.na is None else OpticsSetup(numerical_aperture=args.na)
-    readout = Readout(sample_rate_Hz=args.sample_rate, adc_bits=args.adc_bits,
-                      adc_min_V=args.adc_range[0], adc_max_V=args.adc_range[1],
-                      mode=args.readout, model=args.optics_model)
+    try:
+        readout = Readout(sample_rate_Hz=args.sample_rate, adc_bits=args.adc_bits,
+                          adc_min_V=args.adc_range[0], adc_max_V=args.adc_range[1],
+                          mode=args.readout, model=args.optics_model)
+    except SensorInputError as exc:
+        raise UsageError(flagged(str(exc), READOUT_FLAGS)) from None
     with busy(f"sensor {design.name}", args.quiet) as step:
         step("solving and calibrating")
         sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
@@ -93,9 +99,9 @@ def run(args: argparse.Namespace) -> int:
         require_finite(f"datasheet of {design.name}", values)
         if files:
             step("plots")
-            make_out_dir(args.out)
-            save_figure(intensity_figure(sensor, ds, args.tolerance), files[0])
-            save_figure(calibration_figure(sensor, ds), files[1])
+            with staged(args) as stage:
+                save_figure(intensity_figure(sensor, ds, args.tolerance), stage / files[0].name)
+                save_figure(calibration_figure(sensor, ds), stage / files[1].name)
     if args.json:
         print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross), "kerf_mm": design.kerf_mm,
                           "files": [str(f) for f in files]}, indent=1))

@@ -131,17 +131,26 @@ def _write_figure(path, panels) -> None:
 
 
 def _write_outputs(args, pairs, panels, comparison=None) -> None:
-    if args.csv:
-        from mri.study import write_csv
+    """The --csv, --figure and --report files as one set: each is written to a temporary
+    file beside its name, and all are moved into place only when every one is complete."""
+    from contextlib import ExitStack
 
-        write_csv(args.csv, pairs)
-    if args.figure:
-        _write_figure(args.figure, panels)
-    if args.report:
-        from sensor.report.snr_report import write_snr_report
+    from geometry.atomic import atomic_path
 
-        command = "dacm snr " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["snr"] else "dacm snr"
-        write_snr_report(args.report, pairs, panels, comparison, command)
+    with ExitStack() as stack:
+        staged = {flag: stack.enter_context(atomic_path(path)) for flag, path in
+                  (("csv", args.csv), ("figure", args.figure), ("report", args.report)) if path}
+        if args.csv:
+            from mri.study import write_csv
+
+            write_csv(staged["csv"], pairs)
+        if args.figure:
+            _write_figure(staged["figure"], panels)
+        if args.report:
+            from sensor.report.snr_report import write_snr_report
+
+            command = "dacm snr " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["snr"] else "dacm snr"
+            write_snr_report(staged["report"], pairs, panels, comparison, command)
 
 
 def run(args) -> int:

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import time
 import tomllib
 import warnings
 from pathlib import Path
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import CountingBar, add_quiet_argument, shown
 
 
@@ -36,8 +37,8 @@ def register(subparsers) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the cells on this Dask distributed scheduler (e.g. tcp://host:8786)")
     p.add_argument("--resume", action="store_true",
-                   help="finish the dataset OUT/sweep.nc of an interrupted run (same settings); "
-                        "the other files are still replaced only with --force")
+                   help=f"finish the checkpoint OUT/{CHECKPOINT} of an interrupted run (same "
+                        "settings; it is checked before it is trusted)")
     p.add_argument("--monte-carlo", type=int, metavar="N",
                    help="repeat each cell N times with hinge thicknesses drawn around nominal")
     p.add_argument("--hinge-sd", type=float, metavar="MM", help="standard deviation of the hinge thickness draws")
@@ -46,6 +47,12 @@ def register(subparsers) -> None:
     p.add_argument("--json", action="store_true", help="print the summary and the files as JSON")
     add_quiet_argument(p)
     p.set_defaults(func=run)
+
+
+#: Design fields the sweep sets itself, not taken from a --config [design] table.
+SWEPT_FIELDS = {"phi1_deg": "from --phi1 / phi1", "phi2_deg": "from --phi2 / phi2",
+                "hinge_set": "from --hinges / hinges", "hinge_thickness_mm": "from --hinges / hinges",
+                "name": "each cell is named after its angles"}
 
 
 def spec_from_args(args: argparse.Namespace):
@@ -59,8 +66,10 @@ def spec_from_args(args: argparse.Namespace):
     check_run_options(args.workers, args.scheduler)  # before anything is made in --out
     cfg: dict = {}
     if args.config is not None:
+        from sensor.cli.design_args import input_file
+
         try:
-            with open(args.config, "rb") as fh:
+            with open(input_file("--config", args.config), "rb") as fh:
                 cfg = tomllib.load(fh)
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise SweepError(f"{args.config}: malformed TOML: {exc}") from None
@@ -85,6 +94,10 @@ def spec_from_args(args: argparse.Namespace):
 
     if not isinstance(cfg.get("design", {}), dict):
         raise SweepError(f"design = {cfg['design']!r}: must be a table of design fields")
+    swept = sorted(set(cfg.get("design", {})) & set(SWEPT_FIELDS))
+    if swept:
+        raise SweepError(f"--config {args.config}: [design] {swept[0]}: the sweep sets it "
+                         f"({SWEPT_FIELDS[swept[0]]}); remove it from the [design] table")
     try:
         return SweepSpec(
             hinge_sets=tuple(dict.fromkeys(hinges)), phi1=phi1, phi2=phi2,
@@ -95,6 +108,11 @@ def spec_from_args(args: argparse.Namespace):
             seed=pick(args.seed, "seed", 0, int))
     except GeometryError as exc:
         raise SweepError(f"[design] table: {exc}") from None
+
+
+#: The dataset of a sweep that has not finished, in --out (saved every few seconds and when
+#: the sweep is stopped); the finished set replaces it.
+CHECKPOINT = "sweep-checkpoint.nc"
 
 
 def output_names(spec, plots: bool) -> list[str]:
@@ -130,36 +148,51 @@ def run(args: argparse.Namespace) -> int:
     if args.workers < 0:
         raise SweepError(f"--workers = {args.workers}: must be >= 0 (0 = one per core)")
     names = output_names(spec, not args.no_plots)
-    # --resume finishes sweep.nc: that file is expected; the others are still protected
-    claim(args, names[1:] if args.resume else names, hint="" if args.resume else "--resume to finish its sweep.nc")
-    out = make_out_dir(args.out)
-    nc = out / "sweep.nc"
+    claim(args, names, exclusive=True)
+    out = args.out
+    checkpoint = out / CHECKPOINT
+    if checkpoint.exists() and not args.resume:
+        if not args.force:
+            raise SweepError(f"{checkpoint} is the checkpoint of an interrupted sweep: use "
+                             "--resume to finish it, --force to start again, or another --out")
+        checkpoint.unlink()
     t0 = time.monotonic()
-    ds, n_new = run_sweep(spec, version("dacm"), nc, resume=args.resume, workers=args.workers,
+    ds, n_new = run_sweep(spec, version("dacm"), checkpoint, resume=args.resume, workers=args.workers,
                           scheduler=args.scheduler, progress=CountingBar("sweep", "cells") if shown(args.quiet) else None)
     t_solve = time.monotonic() - t0
     from sensor.design_space.equal_range import pareto_front
 
     fronts = {str(h): pareto_front(ds, str(h)) for h in ds["hinges"].values}
-    if args.no_plots:
-        written = _write_data(ds, fronts, out)
-    else:
-        from geometry.atomic import remove_stale_temps
-        from sensor.design_space.execution import task_pool
-        from sensor.design_space.plots import start_figures
-        from sensor.errors import ResourceNote
+    try:
+        written = _write_set(args, ds, fronts)
+    except KeyboardInterrupt as exc:  # every cell is done: keep them for --resume
+        from sensor.design_space.dataset import save_dataset
+        from sensor.errors import SweepInterrupted, Terminated
 
-        try:
-            with warnings.catch_warnings():  # a note on --workers was given by the sweep
-                warnings.simplefilter("ignore", ResourceNote)
-                with task_pool(args.workers) as pool:
-                    figures = start_figures(ds, fronts, out, pool)   # drawn while the data is written
-                    written = _write_data(ds, fronts, out) + figures()
-        finally:  # a worker stopped mid-write leaves a temp file; its process is gone now
-            for name in names:
-                remove_stale_temps(out / name)
+        save_dataset(ds, checkpoint)
+        signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
+        raise SweepInterrupted(f"interrupted while writing the files; every cell is saved in "
+                               f"{checkpoint}: finish with --resume", signum) from None
     from sensor.design_space.summary import summary, summary_text
 
     s = summary(ds, n_new, t_solve, time.monotonic() - t0, written)
     print(json.dumps(s, indent=1) if args.json else summary_text(s))
     return 0
+
+
+def _write_set(args: argparse.Namespace, ds, fronts: dict) -> list[Path]:
+    """The dataset, tables and plots, into place together (:func:`staged`)."""
+    with staged(args, remove=[CHECKPOINT]) as stage:  # the whole set, or none of it
+        if args.no_plots:
+            written = _write_data(ds, fronts, stage)
+        else:
+            from sensor.design_space.execution import task_pool
+            from sensor.design_space.plots import start_figures
+            from sensor.errors import ResourceNote
+
+            with warnings.catch_warnings():  # a note on --workers was given by the sweep
+                warnings.simplefilter("ignore", ResourceNote)
+                with task_pool(args.workers) as pool:
+                    figures = start_figures(ds, fronts, stage, pool)   # drawn while the data is written
+                    written = _write_data(ds, fronts, stage) + figures()
+    return [args.out / p.name for p in written]

@@ -7,7 +7,7 @@ import argparse
 import json
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 MESHES = ("coarse", "default", "fine")
@@ -65,12 +65,14 @@ def run(args: argparse.Namespace) -> int:
                           nonlinear=args.nonlinear, target_output_mm=args.target_output)
     out = verification_to_dict(v)
     if paths:
-        path = make_out_dir(args.out) / paths[0].name
+        path = paths[0]
         kind = ("plane strain" if args.plane_strain else "plane stress") + (", nonlinear" if args.nonlinear else "")
         title = (f"{design.name} {out['profile']}: continuum FE, {kind}, {args.target_output:g} mm output\n"
                  f"A = {v.fe_summary['amplification']:.3f}, k_out = {v.fe_summary['k_out_N_per_mm']:.3f} N/mm;"
                  f" labels: hinge: stress one t inside the neck (MPa)")
-        save_figure(stress_field_figure(v.fe, design, title, v.fe_summary["hinge_stress_MPa"]), path, dpi=140)
+        with staged(args) as stage:
+            save_figure(stress_field_figure(v.fe, design, title, v.fe_summary["hinge_stress_MPa"]),
+                        stage / path.name, dpi=140)
         out["figure"] = str(path)
     if args.json:
         print(json.dumps(out, indent=1))

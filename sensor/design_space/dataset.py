@@ -7,6 +7,7 @@ and the reason for every infeasible cell, with the run's settings as attributes.
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -16,6 +17,7 @@ import xarray as xr
 from geometry.params import design_to_dict
 from sensor.design_space.equal_range import fill_equal_range
 from sensor.design_space.spec import SweepSpec
+from sensor.errors import SweepError
 from sensor.mechanics.qualifiers import Qualifiers
 
 #: Qualifiers stored for both bodies (the fields of :class:`Qualifiers`): (units, long name).
@@ -161,16 +163,109 @@ def merge_row(ds: xr.Dataset, row: dict) -> None:
 
 
 def save_dataset(ds: xr.Dataset, path: Path) -> None:
-    """Write the dataset as NetCDF (atomically: an interrupted write leaves the old file)."""
-    from geometry.atomic import atomic_path
+    """Write the dataset as NetCDF, with the SHA-256 of every row in the attribute
+    ``row_sha256`` (:func:`row_checksums`), after :func:`check_dataset`. The file is made in
+    memory and written with Python's own I/O, atomically (an interrupted or failed write
+    leaves the old file; HDF5 writing to a full disk itself would crash the process)."""
+    from geometry.atomic import write_bytes
 
+    check_dataset(ds, str(path), stored_checksums=False)  # they are replaced now
     out = ds.copy()
+    out.attrs["row_sha256"] = json.dumps(row_checksums(ds))
     for k in ("reason", "basis_reason"):
         out[k] = out[k].astype(str)
     for k in FLAGS:
         out[k] = out[k].astype("i1")
-    with atomic_path(path) as tmp:
-        out.to_netcdf(tmp, engine="h5netcdf")
+    write_bytes(path, out.to_netcdf(engine="h5netcdf"))
+
+
+def row_checksums(ds: xr.Dataset) -> dict[str, str]:
+    """SHA-256 of each (hinge set, phi1) row: every variable's values in that row (the
+    proposed cells, the basis body, the basis family at that phi1), keyed ``"HINGES/I"``."""
+    arrays = [(k.encode(), ds[k].values, ds[k].dims) for k in sorted(map(str, ds.data_vars))]
+    out = {}
+    for h, hs in enumerate(ds["hinges"].values):
+        for i in range(ds.sizes["phi1_deg"]):
+            digest = hashlib.sha256()
+            for name, values, dims in arrays:
+                index = tuple(h if d == "hinges" else i if d == "phi1_deg" else slice(None) for d in dims)
+                digest.update(name + _canonical(values[index]))
+            out[f"{hs}/{i}"] = digest.hexdigest()
+    return out
+
+
+def _canonical(values: np.ndarray) -> bytes:
+    """Bytes of an array as stored and read back: floats with one NaN, flags as bytes,
+    text NUL-separated."""
+    a = np.asarray(values)
+    if a.dtype.kind == "f":
+        return np.where(np.isnan(a), np.nan, a).astype("<f8").tobytes()
+    if a.dtype.kind in "biu":
+        return a.astype("<i8").tobytes()
+    return "\0".join(str(x) for x in a.ravel()).encode()
+
+
+#: The most a cell's amplification may exceed the rigid-link value A_kin (DESIGN section 3):
+#: the beam model's largest excess on an 8 x 8 grid of both hinge sets is 17 % (finite hinge
+#: length and large rotation at 1 mm travel); a value beyond is not a result of the model.
+AMPLIFICATION_OVER_KINEMATIC = 1.5
+
+
+def check_dataset(ds: xr.Dataset, where: str, stored_checksums: bool = True) -> None:
+    """Raise :class:`SweepError` (naming ``where`` and the first bad cell) when the dataset
+    contradicts itself: a row that does not match its stored checksum (unless
+    ``stored_checksums`` is False: the data was changed since it was read), a cell flagged
+    feasible that is not computed or whose values are not finite, a ratio that is not the
+    quotient it names, or an amplification outside (0, 1.5 A_kin]."""
+    from geometry.layout import kinematic_amplification
+
+    def bad(what, h, i, j=None):
+        cell = f"hinges {ds['hinges'].values[h]}, phi1 {ds['phi1_deg'].values[i]:g}" + (
+            "" if j is None else f", phi2 {ds['phi2_deg'].values[j]:g}")
+        return SweepError(f"{where}: {what} at {cell}: the dataset is corrupt; remove it "
+                          "(or use another --out) and run the sweep again")
+
+    stored = ds.attrs.get("row_sha256") if stored_checksums else None
+    if stored is not None:
+        try:
+            stored = json.loads(stored)
+        except (TypeError, ValueError):
+            raise SweepError(f"{where}: its row checksums (attribute row_sha256) are not "
+                             "readable: the dataset is corrupt") from None
+        for key, digest in row_checksums(ds).items():
+            if stored.get(key) != digest:
+                hs, i = key.rsplit("/", 1)
+                h = list(map(str, ds["hinges"].values)).index(hs)
+                raise bad("the values do not match the checksum written with them", h, int(i))
+    feasible, computed = ds["feasible"].values.astype(bool), ds["computed"].values.astype(bool)
+    if (feasible & ~computed).any():
+        h, i, j = np.argwhere(feasible & ~computed)[0]
+        raise bad("a cell flagged feasible but not computed", h, i, j)
+    for k in [*BODY, *RATIOS]:
+        v = ds[k].values
+        wrong = feasible & ~np.isfinite(v)
+        if wrong.any():
+            h, i, j = np.argwhere(wrong)[0]
+            raise bad(f"{k} = {v[h, i, j]} in a cell flagged computed and feasible", h, i, j)
+    for k, q in RATIOS.items():
+        expected = ds[q].values / ds[f"basis_{q}"].values[:, :, None]
+        wrong = feasible & ~np.isclose(ds[k].values, expected, rtol=1e-9, atol=0.0)
+        if wrong.any():
+            h, i, j = np.argwhere(wrong)[0]
+            raise bad(f"{k} = {ds[k].values[h, i, j]:g} is not {q} / basis_{q} = "
+                      f"{expected[h, i, j]:g}", h, i, j)
+    a = ds["amplification"].values
+    for h, i, j in np.argwhere(feasible):
+        limit = AMPLIFICATION_OVER_KINEMATIC * kinematic_amplification(
+            float(ds["phi1_deg"].values[i]), float(ds["phi2_deg"].values[j]))
+        if not 0.0 < a[h, i, j] <= limit:
+            raise bad(f"amplification = {a[h, i, j]:g} outside (0, {limit:.3g}] "
+                      "(1.5 x the rigid-link value)", h, i, j)
+    basis = ds["basis_amplification"].values
+    ok = np.isfinite(basis)
+    if (ok & ~((basis > 0) & (basis <= AMPLIFICATION_OVER_KINEMATIC))).any():
+        h, i = np.argwhere(ok & ~((basis > 0) & (basis <= AMPLIFICATION_OVER_KINEMATIC)))[0]
+        raise bad(f"basis_amplification = {basis[h, i]:g} outside (0, 1.5]", h, i)
 
 
 def load_dataset(path: Path) -> xr.Dataset:

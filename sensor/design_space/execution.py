@@ -29,6 +29,7 @@ import xarray as xr
 
 from geometry.atomic import remove_stale_temps
 from sensor.design_space.dataset import (
+    check_dataset,
     empty_dataset,
     load_dataset,
     merge_row,
@@ -166,6 +167,8 @@ def _checkpoint(spec: SweepSpec, path: Path) -> xr.Dataset | None:
                          "use the same grid and settings, or another --out")
     if any(ds[v].shape != reference[v].shape for v in reference.data_vars):
         raise SweepError(f"--resume: {path}: variable shapes differ from the grid of its settings")
+    check_dataset(ds, f"--resume: {path}")
+    ds.attrs.pop("row_sha256", None)  # true of the file; the rows computed now change the data
     return ds
 
 
@@ -255,18 +258,9 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
                   lost_after_s: float = CLUSTER_TIMEOUT_S):
     """Yield rows solved on a Dask cluster. Raises :class:`ClusterLostError` when the
     cluster has had no worker, or the client no scheduler, for ``lost_after_s`` seconds."""
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise SweepError("--scheduler needs the 'distributed' extra: pip install 'dacm[distributed]'") from None
-    try:
-        client = Client(address, timeout=timeout_s)
-    except (OSError, TimeoutError) as exc:
-        raise SweepError(f"--scheduler = {address!r}: cannot reach the Dask scheduler within "
-                         f"{timeout_s:g} s ({type(exc).__name__})") from None
-    except (ValueError, TypeError) as exc:
-        raise SweepError(f"--scheduler = {address!r}: not a Dask scheduler address "
-                         f"({' '.join(str(exc).split())[:120]})") from None
+    from distributed import as_completed
+
+    client = connect_client(address, timeout_s)
     try:
         # only as_completed holds the futures: a row's result is released on the cluster
         # once it is merged, so the workers' memory does not grow with the grid
@@ -288,6 +282,82 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
                                f"({type(exc).__name__})") from None
     finally:
         _close_client(client)
+
+
+#: Seconds the scheduler has to answer the probe of :func:`probe_scheduler`.
+PROBE_TIMEOUT_S = 4.0
+#: The largest first message a Dask scheduler sends (its handshake is about 100 bytes).
+_HANDSHAKE_MAX_BYTES = 1 << 20
+
+
+def connect_client(address: str, timeout_s: float = 5.0):
+    """A Dask ``Client`` of the scheduler at ``address``, or :class:`SweepError` naming the
+    address within ``PROBE_TIMEOUT_S + timeout_s`` seconds: a TCP address is probed first
+    (:func:`probe_scheduler`), since distributed itself waits forever on a port that accepts
+    and never replies and reads a non-Dask answer as a frame length of exabytes."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SweepError("--scheduler needs the 'distributed' extra: pip install 'dacm[distributed]'") from None
+    probe_scheduler(address)
+    try:
+        return Client(address, timeout=timeout_s)
+    except (OSError, TimeoutError) as exc:
+        raise SweepError(f"--scheduler = {address!r}: cannot reach the Dask scheduler within "
+                         f"{timeout_s:g} s ({type(exc).__name__})") from None
+    except (ValueError, TypeError, MemoryError) as exc:
+        raise SweepError(f"--scheduler = {address!r}: not a Dask scheduler "
+                         f"({' '.join(str(exc).split())[:120]})") from None
+
+
+def probe_scheduler(address: str, timeout_s: float = PROBE_TIMEOUT_S) -> None:
+    """Check that a ``tcp://`` (or ``host:port``) address answers as a Dask scheduler does:
+    on connecting it sends its handshake, a message of a few hundred bytes framed as
+    distributed's TCP comm frames it (an 8-byte little-endian length, then msgpack naming
+    its ``pickle-protocol``). Raise :class:`SweepError` naming the address when it refuses,
+    stays silent for ``timeout_s`` seconds, or answers anything else. Other protocols are
+    left to distributed."""
+    import socket
+    import struct
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address if "://" in address else f"tcp://{address}")
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise SweepError(f"--scheduler = {address!r}: not a Dask scheduler address "
+                         f"({' '.join(str(exc).split())[:120]})") from None
+
+    def fail(why: str):
+        return SweepError(f"--scheduler = {address!r}: {why}")
+
+    deadline = time.monotonic() + timeout_s
+
+    def read(sock, n: int) -> bytes:
+        data = b""
+        while len(data) < n:
+            sock.settimeout(max(0.01, deadline - time.monotonic()))
+            chunk = sock.recv(n - len(data))
+            if not chunk:
+                raise fail("not a Dask scheduler (it closed the connection without its handshake)")
+            data += chunk
+        return data
+
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s) as sock:
+            (size,) = struct.unpack("<Q", read(sock, 8))
+            if not 0 < size <= _HANDSHAKE_MAX_BYTES:
+                raise fail("not a Dask scheduler (its first message is not a Dask handshake)")
+            if b"pickle-protocol" not in read(sock, size):
+                raise fail("not a Dask scheduler (its first message is not a Dask handshake)")
+    except TimeoutError:
+        raise fail(f"no Dask handshake within {timeout_s:g} s (not a Dask scheduler, or "
+                   "it does not answer)") from None
+    except OSError as exc:
+        raise fail(f"cannot reach the Dask scheduler ({exc.strerror or type(exc).__name__})") from None
 
 
 def _dask_result(future, address: str, lost_after_s: float) -> dict:
@@ -360,15 +430,7 @@ def task_pool(workers: int = 0, scheduler: str | None = None):
     pool is stopped when the block ends, however it ends."""
     check_run_options(workers, scheduler)
     if scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise SweepError("--scheduler needs the 'distributed' extra: pip install 'dacm[distributed]'") from None
-        try:
-            client = Client(scheduler, timeout=5.0)
-        except (OSError, TimeoutError, ValueError, TypeError) as exc:
-            raise SweepError(f"--scheduler = {scheduler!r}: cannot reach the Dask scheduler "
-                             f"({type(exc).__name__})") from None
+        client = connect_client(scheduler)
         try:
             size = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
             def start(fn, items):

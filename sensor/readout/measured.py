@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import csv
 import math
+import re
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,7 +35,18 @@ from sensor.readout.sensor_model import build_sensor, loading_cycle
 
 #: What the second column of a loop holds.
 KINDS = {"displacement": "mm", "volts": "V"}
+#: The unit of each column.
+UNITS = {"force": "N", **KINDS}
+#: The CSV a loop is read from, as the one-line errors state it.
+CSV_SCHEMA = {k: f"force_N,{k}_{u} (force in N, then {k} in {u}; the header row is optional)"
+              for k, u in KINDS.items()}
+#: The largest file and row count read (the size is checked before reading).
+MAX_BYTES = 256 << 20
 MAX_ROWS = 10_000_000
+#: The largest magnitude of each column: a force beyond 10 kN, a travel beyond 1 m or a
+#: reading beyond 1 kV is not a measurement of a sensor with a range of a few N and a 25 mm
+#: body (the model could not be solved to it either).
+VALUE_LIMITS = {"force": (1e4, "N"), "displacement": (1e3, "mm"), "volts": (1e3, "V")}
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,35 +99,61 @@ class LoopFigures:
 
 
 def read_loop_csv(path: str | Path, kind: str = "displacement") -> Loop:
-    """A loop from a CSV file: two columns, force (N) then the response (mm or V).
-
-    A header row is optional; when present, the columns are the ones whose names start with
-    "force" and with ``kind`` ("displacement" or "volts"), whatever their order.
-    """
+    """A loop from a CSV file, by its declared schema (:data:`CSV_SCHEMA`): exactly two
+    columns, force (N) then the response (mm or V), in every row; a header row is optional
+    and, when present, names the columns ``force...`` and ``KIND...`` (in either order), with
+    their units if it gives any (``force_N``, ``displacement [mm]``, ``volts_V``); every value
+    a finite number within :data:`VALUE_LIMITS`. The file must be a regular file of at most
+    :data:`MAX_BYTES` (checked before reading) and :data:`MAX_ROWS` rows. Anything else is
+    one :class:`HysteresisError` naming the file, the row and the rule."""
     path = Path(path)
     if kind not in KINDS:
         raise HysteresisError(f"--columns force,{kind}: must be force,displacement or force,volts")
+    info = path.stat()  # FileNotFoundError etc. name the path
+    if not stat.S_ISREG(info.st_mode):
+        raise HysteresisError(f"{path}: not a regular file (a CSV file is read, not a device, "
+                              "folder or pipe)")
+    if info.st_size > MAX_BYTES:
+        raise HysteresisError(f"{path}: {info.st_size} bytes: at most {MAX_BYTES} are read "
+                              f"({MAX_ROWS} rows of two numbers)")
     try:
         with path.open(newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
+            rows = [r for r in csv.reader(fh) if any(c.strip() for c in r)]
     except UnicodeDecodeError:
         raise HysteresisError(f"{path}: not a text CSV file (bytes that are not UTF-8)") from None
-    rows = [r for r in rows if any(c.strip() for c in r)]
+    except csv.Error as exc:
+        raise HysteresisError(f"{path}: not a CSV loop ({exc})") from None
     if not rows:
         raise HysteresisError(f"{path}: no data rows")
     if len(rows) > MAX_ROWS:
         raise HysteresisError(f"{path}: {len(rows)} rows: at most {MAX_ROWS} are read")
-    cols = (0, 1)
-    if not _numeric(rows[0]):
+    cols, first = (0, 1), 1
+    if _numeric(rows[0]):
+        first = 0
+    else:
         header = [c.strip().lower() for c in rows[0]]
-        cols = (_column(header, "force", path), _column(header, kind, path))
-        rows = rows[1:]
-    try:
-        data = np.array([[float(r[cols[0]]), float(r[cols[1]])] for r in rows], dtype=float)
-    except (ValueError, IndexError):
-        raise HysteresisError(f"{path}: every data row needs two numbers (force, {kind})") from None
+        if len(header) != 2:
+            raise HysteresisError(f"{path}: the header has {len(header)} columns "
+                                  f"({', '.join(header)}); a loop has exactly two: {CSV_SCHEMA[kind]}")
+        cols = (_column(header, "force", path, kind), _column(header, kind, path, kind))
+    data = np.empty((len(rows) - first, 2))
+    for n, row in enumerate(rows[first:]):
+        if len(row) != 2:
+            raise HysteresisError(f"{path}: row {n + first + 1} has {len(row)} columns; a loop "
+                                  f"has exactly two: {CSV_SCHEMA[kind]}")
+        try:
+            data[n] = float(row[cols[0]]), float(row[cols[1]])
+        except ValueError:
+            raise HysteresisError(f"{path}: row {n + first + 1}: every data row needs two numbers "
+                                  f"({CSV_SCHEMA[kind]})") from None
     if not len(data):
         raise HysteresisError(f"{path}: no data rows")
+    for j, name in enumerate(("force", kind)):
+        limit, unit = VALUE_LIMITS[name]
+        big = np.flatnonzero(np.isfinite(data[:, j]) & (np.abs(data[:, j]) > limit))
+        if len(big):
+            raise HysteresisError(f"{path}: row {big[0] + first + 1}: {name} {data[big[0], j]:g} {unit} "
+                                  f"is beyond +-{limit:g} {unit}, not a measurement of this sensor")
     return Loop(data[:, 0], data[:, 1], kind, str(path))
 
 
@@ -126,11 +165,17 @@ def _numeric(row) -> bool:
     return len(row) >= 2
 
 
-def _column(header: list[str], prefix: str, path: Path) -> int:
+def _column(header: list[str], prefix: str, path: Path, kind: str) -> int:
     hits = [i for i, c in enumerate(header) if c.startswith(prefix)]
     if len(hits) != 1:
         raise HysteresisError(f"{path}: needs one column named {prefix}...; the header is "
-                              f"{', '.join(header)}")
+                              f"{', '.join(header)} ({CSV_SCHEMA[kind]})")
+    name = header[hits[0]]
+    unit = UNITS["force" if prefix == "force" else kind]
+    given = re.fullmatch(rf"{prefix}\s*(?:_|\[|\()?\s*([a-z]*)\s*[\])]?", name)
+    if given is None or given.group(1) not in ("", unit.lower()):
+        raise HysteresisError(f"{path}: column {name!r}: must be {prefix} in {unit} "
+                              f"({CSV_SCHEMA[kind]})")
     return hits[0]
 
 

@@ -26,8 +26,8 @@ def test_json_numbers_and_files(capsys, tmp_path):
     assert [r["distance_mm"] for r in s["surface_offsets"]] == [1.0, 2.0, 5.0]
     assert set(s["gradient_echo"]) == {"loss_threshold", "extent_mm", "volume_mm3", "reaches_fov_edge"}
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["basis-artefact-field.png", "basis-artefact-image.png", "basis-artefact.json",
-                     "basis-artefact.nc"]
+    assert names == ["artefact-manifest.json", "basis-artefact-field.png", "basis-artefact-image.png",
+                     "basis-artefact.json", "basis-artefact.nc"]
     assert json.loads((tmp_path / "basis-artefact.json").read_text())["surface_offsets"] == s["surface_offsets"]
     with xr.open_dataset(tmp_path / "basis-artefact.nc", engine="h5netcdf") as ds:
         hz_per_ppm = s["max_offset_hz"] / s["max_offset_ppm"]

@@ -16,7 +16,7 @@ def test_export_preset_writes_what_it_prints(tmp_path, dacm):
                            "--dxf", "--beam-model")
     assert status == 0 and err == ""
     written = sorted(tmp_path.iterdir())
-    assert [p.name for p in written] == ["sample-a.dxf", "sample-a.json"]
+    assert [p.name for p in written] == ["export-manifest.json", "sample-a.dxf", "sample-a.json"]
     assert out.splitlines() == [f"wrote {tmp_path / 'sample-a.dxf'}", f"wrote {tmp_path / 'sample-a.json'}"]
     assert load_model(tmp_path / "sample-a.json").E_MPa == MATERIALS["delrin"].E_MPa
 
@@ -41,7 +41,7 @@ def test_export_all_formats_from_flags_with_kerf(tmp_path, dacm):
     assert status == 0
     stem = "basis-20-03-03-abs"
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        f"{stem}.{ext}" for ext in ("dxf", "stl", "step", "json"))
+        [f"{stem}.{ext}" for ext in ("dxf", "stl", "step", "json")] + ["export-manifest.json"])
     assert load_model(tmp_path / f"{stem}.json").E_MPa == 1800.0  # ABS
     doc = ezdxf.readfile(tmp_path / f"{stem}.dxf")
     box = ezdxf.bbox.extents(doc.modelspace())
@@ -55,7 +55,7 @@ def test_export_from_toml_is_named_after_the_file(tmp_path, dacm):
     status, _, _ = dacm("export", "--config", str(tmp_path / "mine.toml"), "--out",
                        str(out_dir), "--beam-model")
     assert status == 0
-    assert [p.name for p in out_dir.iterdir()] == ["mine.json"]
+    assert sorted(p.name for p in out_dir.iterdir()) == ["export-manifest.json", "mine.json"]
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -105,7 +105,7 @@ def test_draw_writes_picture(tmp_path, dacm, fmt, magic):
                           "--format", fmt, "--dpi", "60")
     assert status == 0 and out == f"wrote {target}\n"
     assert target.read_bytes().startswith(magic)
-    assert [p.name for p in target.parent.iterdir()] == [target.name]
+    assert sorted(p.name for p in target.parent.iterdir()) == ["draw-manifest.json", target.name]
 
 
 @pytest.mark.parametrize("argv, message", [

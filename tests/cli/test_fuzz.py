@@ -121,7 +121,7 @@ def _materialise(arg, work: Path, out: Path) -> str:
         path = work / "model.json"
         path.write_text(content if isinstance(content, str) else json.dumps(content))
     else:
-        path = out / "sweep.nc"
+        path = out / "sweep-checkpoint.nc"
         if content == "corrupt":
             path.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\x00" * 64)
         else:
@@ -165,7 +165,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(capsys, tmp_path, case)
     ("sweep", ["--hinge-sd", "inf", "--monte-carlo", "2"], "hinge_sd_mm = inf"),
     ("sweep", ["--phi1="], "--phi1 = ''"),
     ("sweep", ["--scheduler", "foo"], "--scheduler = 'foo'"),
-    ("sweep", ["--resume", ("nc", "corrupt")], "sweep.nc is not a readable sweep dataset"),
+    ("sweep", ["--resume", ("nc", "corrupt")], "sweep-checkpoint.nc is not a readable sweep dataset"),
     ("sweep", ["--resume", ("nc", "no-computed")], "computed"),
     ("export", ["--config", ("toml", b'name = "../escaped"\nphi2_deg = 20\n')], "name = '../escaped'"),
     ("export", ["--config", ("toml", b'name = ""\nphi2_deg = 20\n')], "name = ''"),

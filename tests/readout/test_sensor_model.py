@@ -298,7 +298,7 @@ def test_cli_json_and_plots(tmp_path, capsys):
                 "hysteresis_pct"):
         assert math.isfinite(out[key]) and out[key] > 0
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [
-        "sample-a-calibration.png", "sample-a-intensity.png"]
+        "sample-a-calibration.png", "sample-a-intensity.png", "sensor-manifest.json"]
 
 
 @pytest.mark.parametrize("argv", [

@@ -71,8 +71,8 @@ def test_write_html_replaces_only_when_forced(tmp_path):
     with pytest.raises(FileExistsError, match="r.html exists"):
         rh.write_html("new", page)
     assert page.read_text() == "old"
-    rh.write_html("new", page, force=True)
-    assert page.read_text() == "new"
+    rh.write_html("<html>new</html>", page, force=True)
+    assert page.read_text() == "<html>new</html>"
     assert [p.name for p in tmp_path.iterdir()] == ["r.html"]   # no temporary left behind
 
 
