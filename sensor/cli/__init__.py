@@ -20,6 +20,7 @@ import tomllib
 import warnings
 
 from geometry.errors import GeometryError
+from geometry.provenance import record_command
 from mri.errors import MriError
 from sensor.cli.parser import build_parser, parse  # noqa: F401 (build_parser: the CLI's public name)
 from sensor.errors import ResourceNote, SensorError, SweepInterrupted, Terminated
@@ -74,6 +75,7 @@ def _is_main_thread() -> bool:
 def main(argv: list[str] | None = None) -> int:
     command = None
     _stopped_by.clear()
+    record_command(["dacm", *(sys.argv[1:] if argv is None else argv)])
     try:
         args = parse(argv)
         command = args.command

@@ -8,6 +8,8 @@ import difflib
 import importlib
 import re
 
+from geometry.provenance import version
+
 #: Command modules, in the order ``dacm --help`` lists them.
 COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "design", "sensor", "measure", "report",
             "snr", "line", "loop")
@@ -35,17 +37,6 @@ class _Parser(argparse.ArgumentParser):
         flags = [o for a in self._actions for o in a.option_strings if o.startswith("--")]
         unknown = next((e.split("=")[0] for e in extras if e.startswith("-")), "")
         self.error(f"unrecognized arguments: {' '.join(extras)}" + did_you_mean(unknown, flags))
-
-
-def version() -> str:
-    """The installed package's version (its metadata)."""
-    from importlib.metadata import PackageNotFoundError
-    from importlib.metadata import version as installed
-
-    try:
-        return installed("dacm")
-    except PackageNotFoundError:  # running from a source tree that was never installed
-        return "unknown (not installed)"
 
 
 def build_parser() -> argparse.ArgumentParser:
