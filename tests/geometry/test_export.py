@@ -176,3 +176,20 @@ def test_unknown_format_and_output_folder(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(OSError, match="cannot create output folder"):
         export_design(DESIGNS["basis"], tmp_path / "file" / "dir", ["json"])
+
+
+def test_dxf_and_step_are_byte_identical_when_written_again(tmp_path):
+    """The SHA-256 a report records checks a rerun: nothing in the files depends on when or
+    how often they were written (the second write comes a second later, in the same process,
+    whose OCCT writer numbers products by a counter)."""
+    import time
+
+    d = preset("sample-b")
+    first = export_design(d, tmp_path / "a", formats=("dxf", "step"))
+    time.sleep(1.1)  # the STEP header's time stamp has whole seconds
+    second = export_design(d, tmp_path / "b", formats=("dxf", "step"))
+    for a, b in zip(first, second):
+        assert a.read_bytes() == b.read_bytes(), a.name
+    step = first[1].read_text()
+    assert "FILE_NAME('sample-b','2000-01-01T00:00:00'" in step and "PRODUCT('sample-b','sample-b'" in step
+    assert ezdxf.readfile(first[0]).header["$TDUPDATE"] == ezdxf.readfile(second[0]).header["$TDUPDATE"]
