@@ -130,7 +130,17 @@ def checked_mesh(design: Design, face: cq.Face | None = None) -> trimesh.Trimesh
 
 
 def _save_dxf(doc: ezdxf.document.Drawing, tmp: Path) -> None:
+    """Save with fixed metadata and the CLASSES section in a fixed order: ezdxf adds the
+    classes of the entity types in use from a set, in an order that changes with Python's
+    string hashing from one process to the next; here ezdxf's required classes come first in
+    its order, then the others by name."""
+    from ezdxf.sections.classes import REQ_R2004, REQUIRED_CLASSES
+
     with _fixed_dxf_metadata():
+        doc.classes.add_required_classes(doc.dxfversion)
+        rank = {name: i for i, name in enumerate(REQUIRED_CLASSES.get(doc.dxfversion, REQ_R2004))}
+        doc.classes.classes = dict(sorted(doc.classes.classes.items(),
+                                          key=lambda item: (rank.get(item[0][0], len(rank)), item[0])))
         doc.saveas(tmp)
 
 
