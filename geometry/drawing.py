@@ -9,8 +9,12 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
+from geometry import style
 from geometry.layout import kinematic_amplification, make_layout, make_parts
 from geometry.params import Design
+
+style.use()
+
 
 _BODY, _EDGE, _HINGE, _PORT, _DIM = "#e8dcc0", "#333333", "#b22222", "#1f4e9c", "#555555"
 

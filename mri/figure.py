@@ -80,6 +80,10 @@ def _images(panel: PairPanel):
 def pair_figure(panels: list[PairPanel]):
     """A matplotlib figure with one row (a, b, a - b; or a and its noise image) per panel."""
     from matplotlib.figure import Figure
+
+    from geometry import style
+
+    style.use()
     from matplotlib.lines import Line2D
 
     n_cols = max(2 if p.b is None else 3 for p in panels)

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     save_design(design, paths[0])
     with atomic_path(paths[1]) as tmp:
         tmp.write_text(json.dumps(ours["datasheet"], indent=1))
-    save_figure(profile_figure(design), paths[2], dpi=150)
+    save_figure(profile_figure(design), paths[2])
     if basis is not None:
         save_design(basis_design, paths[3])
     keys = ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",

@@ -97,8 +97,8 @@ def run(args: argparse.Namespace) -> int:
         from sensor.pneumatic.line_plots import frequency_figure, step_figure
 
         make_out_dir(args.out)
-        save_figure(frequency_figure(result), files[0], dpi=100)
-        save_figure(step_figure(result), files[1], dpi=100)
+        save_figure(frequency_figure(result), files[0])
+        save_figure(step_figure(result), files[1])
     result["files"] = [str(p) for p in files]
     if args.json:
         print(json.dumps(result))

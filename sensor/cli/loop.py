@@ -137,7 +137,7 @@ def _run_one(args) -> dict:
               "valve": setup.valve, "sensor": args.sensor or "load cell", "duration_s": setup.duration_s,
               "gains": json.loads(ds.attrs["gains"]), **m}
     if not args.no_plots:
-        result["plot"] = str(save_figure(loop_figure(ds, setup), args.out / "loop.png", dpi=90))
+        result["plot"] = str(save_figure(loop_figure(ds, setup), args.out / "loop.png"))
     if not args.json:
         print(f"{setup.controller} control, {setup.observer} observer, {setup.reference} ({setup.amplitude_N:.3g} N "
               f"about {setup.offset_N:.3g} N), {setup.line_length_m:g} m lines, {setup.valve}, sensor: {result['sensor']}")
@@ -196,5 +196,5 @@ def _write_figures(res, figs: dict, out: Path) -> list[str]:
     for name, make in figs.items():
         fig = make(res)
         if fig is not None:
-            written.append(str(save_figure(fig, out / name, dpi=90)))
+            written.append(str(save_figure(fig, out / name)))
     return written

@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
         title = (f"{design.name}: continuum FE, {kind}, {args.target_output:g} mm output\n"
                  f"A = {v.fe_summary['amplification']:.3f}, k_out = {v.fe_summary['k_out_N_per_mm']:.3f} N/mm;"
                  f" labels: hinge: stress one t inside the neck (MPa)")
-        save_figure(stress_field_figure(v.fe, design, title, v.fe_summary["hinge_stress_MPa"]), path, dpi=140)
+        save_figure(stress_field_figure(v.fe, design, title, v.fe_summary["hinge_stress_MPa"]), path)
         out["figure"] = str(path)
     if args.json:
         print(json.dumps(out, indent=1))

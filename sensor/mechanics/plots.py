@@ -10,6 +10,10 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.tri import Triangulation
 
+from geometry import style
+
+style.use()
+
 
 def stress_field_figure(result, design, title: str = "", hinge_stress_MPa: dict | None = None,
                         clip_percentile: float = 99.8) -> Figure:

@@ -8,6 +8,10 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
+from geometry import style
+
+style.use()
+
 MODEL_COLOURS = {"dead-volume": "tab:orange", "richer-hurmuzlu": "tab:purple", "two-volume": "tab:green",
                  "preliminary": "tab:brown", "distributed": "tab:red"}
 

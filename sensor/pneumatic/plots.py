@@ -10,7 +10,11 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
+from geometry import style
 from sensor.pneumatic.studies import CH5_HEADINGS, ESTIMATOR_HEADINGS, window
+
+style.use()
+
 
 ESTIMATOR_COLOURS = {"observer": "tab:blue", "open_loop": "tab:orange", "valve_ports": "tab:green"}
 CONTROLLER_COLOURS = {"smc": "tab:red", "line_model_thesis": "tab:blue", "line_model_damped": "tab:green"}

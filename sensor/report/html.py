@@ -81,7 +81,7 @@ def image_data_uri(data: bytes, kind: str) -> str:
     return f"data:{IMAGE_TYPES[kind]};base64,{base64.b64encode(data).decode('ascii')}"
 
 
-def figure_data_uri(fig, kind: str = "svg", dpi: int = 110) -> str:
+def figure_data_uri(fig, kind: str = "svg", dpi: float | None = None) -> str:
     """A matplotlib ``Figure`` as a ``data:`` URI: ``svg`` (vector, text as paths so no
     font is needed) or ``png`` (``dpi`` pixels per inch)."""
     if kind not in ("svg", "png"):
