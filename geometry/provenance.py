@@ -45,3 +45,22 @@ def header_lines() -> list[str]:
 def comment_header(prefix: str = "# ") -> str:
     """:func:`header_lines` as comment lines (each ending in a newline)."""
     return "".join(f"{prefix}{line}\n" for line in header_lines())
+
+
+def git_commit() -> str | None:
+    """The commit of the checkout this package runs from (``abc1234...``, with
+    ``" + local changes"`` when tracked files differ from it), or None when it is not run
+    from a git checkout (an installed wheel) or git is missing."""
+    import subprocess
+
+    root = Path(__file__).resolve().parent.parent
+    if not (root / ".git").exists():
+        return None
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
+                              text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + (" + local changes" if dirty else "")

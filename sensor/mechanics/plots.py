@@ -73,3 +73,25 @@ def _hinge_centres(result, design, hinges) -> dict:
             node = int(np.argmin(np.linalg.norm(result.points - p.axis.mean(axis=0), axis=1)))
             out[p.hinge] = result.points[node] + result.displacement_mm[node]
     return out
+
+
+def hinge_stress_figure(stresses: dict, allowable_MPa: float, title: str = "") -> Figure:
+    """Each hinge's peak stress (MPa; :class:`~sensor.mechanics.stress.HingeStress`, root
+    stress concentration included) against the material's allowable stress (the line), the
+    bars coloured on the same scale as :func:`stress_field_figure` (0 to 1.2 x allowable)."""
+    from matplotlib import colormaps
+    from matplotlib.colors import Normalize
+
+    hinges = sorted(stresses)
+    peaks = np.array([stresses[h].peak_MPa for h in hinges])
+    top = max(1.2 * allowable_MPa, float(peaks.max()) * 1.05) if np.isfinite(allowable_MPa) else float(peaks.max()) * 1.2
+    norm = Normalize(0.0, 1.2 * allowable_MPa if np.isfinite(allowable_MPa) else top)
+    fig = Figure(figsize=(6.4, 3.4), layout="constrained")
+    ax = fig.subplots()
+    ax.bar([str(h) for h in hinges], peaks, color=colormaps["viridis"](norm(peaks)), edgecolor="k", lw=0.5)
+    if np.isfinite(allowable_MPa):
+        ax.axhline(allowable_MPa, color="crimson", lw=2, label=f"allowable {allowable_MPa:g} MPa")
+        ax.legend(loc="upper left")
+    ax.set(xlabel="hinge (numbers as in the profile)", ylabel="peak stress at full scale (MPa)", ylim=(0, top),
+           title=title)
+    return fig
