@@ -22,7 +22,7 @@ import warnings
 from geometry.errors import GeometryError
 from geometry.provenance import record_command
 from mri.errors import MriError
-from sensor.cli.parser import build_parser, parse  # noqa: F401 (build_parser: the CLI's public name)
+from sensor.cli.parser import build_parser, parse, suggest_choice  # noqa: F401 (build_parser: the CLI's public name)
 from sensor.errors import ResourceNote, SensorError, SweepInterrupted, Terminated
 
 #: Exceptions that mean "bad input", reported in one line with exit status 2.
@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     except USER_ERRORS as exc:
         if _stopped_by:
             return _report_stop(command, _stopped_by[-1])
-        print(f"dacm {command}: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"dacm {command}: error: {suggest_choice(_one_line(exc))}", file=sys.stderr)
         return 2
     except Exception:
         if _stopped_by:

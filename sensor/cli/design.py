@@ -7,12 +7,13 @@ import argparse
 import json
 
 from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.parser import add_target_output_argument
 from sensor.cli.progress import add_quiet_argument, busy
 
 #: The files written to --out.
 FILES = ("design.toml", "design-datasheet.json", "design-profile.png", "basis.toml")
 #: Library field -> flag, for the one-line errors.
-FLAGS = {"range_N": "--range", "travel_mm": "--travel", "hinge_min_mm": "--hinge-min",
+FLAGS = {"range_N": "--range", "target_output_mm": "--target-output", "hinge_min_mm": "--hinge-min",
          "hinge_max_mm": "--hinge-max", "robust_sd_mm": "--robust", "min_yield": "--min-yield",
          "seed": "--seed"}
 
@@ -28,9 +29,9 @@ def register(subparsers) -> None:
                     "the same range and writes OUT/design.toml (for --config), its datasheet, "
                     "its profile picture and OUT/basis.toml.")
     p.add_argument("--range", type=float, required=True, metavar="N", dest="range_N",
-                   help="full-scale force, N (the force that moves the mirror over --travel)")
-    p.add_argument("--travel", type=float, default=1.0, metavar="MM",
-                   help="mirror travel at full scale, mm (default 1; below the fiber clearance)")
+                   help="full-scale force, N (the force that moves the mirror over --target-output)")
+    add_target_output_argument(p, "mirror travel at full scale, mm (default 1; below the fiber clearance)",
+                               old="--travel", default=1.0)
     p.add_argument("--hinge-min", type=float, metavar="MM",
                    help="thinnest hinge, mm (default the process' min_feature_mm, 0.25)")
     p.add_argument("--hinge-max", type=float, metavar="MM",
@@ -57,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from sensor.design_space.optimise import DesignProblem, describe, optimise
     from sensor.errors import DesignError
 
-    kw = dict(range_N=args.range_N, travel_mm=args.travel, hinge_min_mm=args.hinge_min,
+    kw = dict(range_N=args.range_N, target_output_mm=args.target_output, hinge_min_mm=args.hinge_min,
               hinge_max_mm=args.hinge_max, robust_sd_mm=args.robust, min_yield=args.min_yield, seed=args.seed)
     try:
         problem = DesignProblem(**kw)
@@ -102,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out, indent=1))
         return 0
-    print(f"range {args.range_N:g} N at {args.travel:g} mm travel: {out['evaluations']} bodies evaluated "
+    print(f"range {args.range_N:g} N at {args.target_output:g} mm travel: {out['evaluations']} bodies evaluated "
           f"in {out['seconds']:.1f} s")
     for label, d in (("DACM", ours), ("basis", theirs)) if theirs else (("DACM", ours),):
         f = d["design"]

@@ -77,7 +77,7 @@ class DesignProblem:
     ``hinge_max_mm`` to its ``link_width_mm`` (a hinge is a neck of its link)."""
 
     range_N: float
-    travel_mm: float = 1.0
+    target_output_mm: float = 1.0
     body: str = "proposed"
     hinge_min_mm: float | None = None
     hinge_max_mm: float | None = None
@@ -95,9 +95,9 @@ class DesignProblem:
             raise DesignError(f"body = {self.body!r}: must be 'proposed' or 'basis'")
         ref = self.reference()
         Number(0.0, ref.height_mm, lo_open=True, unit="mm, at most the body's height").check(
-            "travel_mm", self.travel_mm, DesignError)
-        if not self.travel_mm < ref.fiber_clearance_mm:
-            raise DesignError(f"travel_mm = {self.travel_mm:g}: must be below fiber_clearance_mm = "
+            "target_output_mm", self.target_output_mm, DesignError)
+        if not self.target_output_mm < ref.fiber_clearance_mm:
+            raise DesignError(f"target_output_mm = {self.target_output_mm:g}: must be below fiber_clearance_mm = "
                               f"{ref.fiber_clearance_mm:g} mm (the mirror must not touch the fiber)")
         if self.hinge_min_mm is None:
             object.__setattr__(self, "hinge_min_mm", ref.min_feature_mm)
@@ -199,7 +199,7 @@ def _match_range(problem: DesignProblem, X: np.ndarray, tolerance: float) -> lis
         if not keep:
             break
         try:
-            res, errs = solve_batch(models, target_output_mm=problem.travel_mm, options=opts)
+            res, errs = solve_batch(models, target_output_mm=problem.target_output_mm, options=opts)
         except SolverError as exc:
             res, errs = [None] * len(keep), [exc] * len(keep)
         alive = []
@@ -278,7 +278,7 @@ def _robust(problem: DesignProblem, d: Design, z: np.ndarray) -> tuple[float, fl
     used = slice(None, 8) if d.is_basis else slice(None)
     cuttable = draws[:, used].min(axis=1) >= d.min_feature_mm
     models = [build_beam_model(d.replace(hinge_thickness_mm=tuple(t))) for t in draws[cuttable]]
-    res, _ = solve_batch(models, target_output_mm=problem.travel_mm) if models else ([], [])
+    res, _ = solve_batch(models, target_output_mm=problem.target_output_mm) if models else ([], [])
     qual = [qualify(r, problem.law).quality_mm_per_N for r in res if r is not None]
     p10 = float(np.percentile(qual, 10)) if qual else math.nan
     return p10, float(cuttable.mean())
@@ -347,7 +347,7 @@ def unreachable_message(problem: DesignProblem, reach: tuple[float, float]) -> s
     lo, hi = reach
     return (f"range_N = {problem.range_N:g}: no {problem.body} body within the feasibility rules, "
             f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable stress reaches "
-            f"it at {problem.travel_mm:g} mm travel; with equal hinges they reach about {lo:.3g} to "
+            f"it at {problem.target_output_mm:g} mm travel; with equal hinges they reach about {lo:.3g} to "
             f"{hi:.3g} N (unequal hinges somewhat further)")
 
 
@@ -367,7 +367,7 @@ def reachable_range(problem: DesignProblem, n: int = 7) -> tuple[float, float]:
                 designs.append(d)
     lows, highs = [], []
     for d in designs:
-        res, _ = solve_batch([build_beam_model(d)], target_output_mm=problem.travel_mm)
+        res, _ = solve_batch([build_beam_model(d)], target_output_mm=problem.target_output_mm)
         if res[0] is None:
             continue
         util = stress_check(d, build_beam_model(d), res[0]).utilisation
@@ -378,7 +378,7 @@ def reachable_range(problem: DesignProblem, n: int = 7) -> tuple[float, float]:
         thick = d.replace(hinge_thickness_mm=tuple(t if i < (8 if d.is_basis else 12) else v
                                                    for i, v in enumerate(d.hinge_thickness_mm)))
         if check_design(thick).feasible:
-            r2, _ = solve_batch([build_beam_model(thick)], target_output_mm=problem.travel_mm)
+            r2, _ = solve_batch([build_beam_model(thick)], target_output_mm=problem.target_output_mm)
             if r2[0] is not None:
                 highs.append(r2[0].input_force_N)
     if not lows:
@@ -396,11 +396,11 @@ def describe(design: Design, problem: DesignProblem) -> dict:
     from sensor.readout.sensor_model import build_sensor
 
     model = build_beam_model(design)
-    r = solve_batch([model], target_output_mm=problem.travel_mm)[0][0]
+    r = solve_batch([model], target_output_mm=problem.target_output_mm)[0][0]
     if r is None:
-        raise DesignError(f"design {design.name}: does not solve to the travel {problem.travel_mm:g} mm")
+        raise DesignError(f"design {design.name}: does not solve to the travel {problem.target_output_mm:g} mm")
     q = qualify(r, problem.law)
-    sheet = datasheet(build_sensor(design, law=problem.law, full_scale_travel_mm=problem.travel_mm),
+    sheet = datasheet(build_sensor(design, law=problem.law, target_output_mm=problem.target_output_mm),
                       material=design.material.name)
     return {"design": design_to_dict(design), "range_N": q.range_N, "hysteresis": q.hysteresis,
             "resolution_N": sheet.resolution_N, "amplification": q.amplification,

@@ -202,7 +202,7 @@ def datasheet_rows(ds, cross) -> list[Quantity]:
     """The datasheet, as ``dacm sensor`` prints it."""
     return [
         Quantity("range", f"0 – {ds.range_N:.3f}", "N",
-                 f"mirror travel {ds.full_scale_travel_mm:g} mm, gap {ds.gap_max_mm:.2f} → "
+                 f"mirror travel {ds.target_output_mm:g} mm, gap {ds.gap_max_mm:.2f} → "
                  f"{ds.gap_min_mm:.2f} mm"),
         Quantity("output span", f"{ds.span_V:.4f}", "V"),
         Quantity("sensitivity", f"{ds.sensitivity_mV_per_N:.2f}", "mV/N", "least-squares line"),
@@ -383,7 +383,7 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
     r = solve(model, target_output_mm=target_output_mm)
     q = qualify(r, DEFAULT_LAW)
     a_kin = kinematic_amplification(design.phi1_deg, design.phi2_deg)
-    sensor = build_sensor(design, full_scale_travel_mm=target_output_mm)
+    sensor = build_sensor(design, target_output_mm=target_output_mm)
     ds = datasheet(sensor, material=design.material.name)
     cross = cross_axis(design, sensor.input_travel_mm)
     stresses = hinge_stresses(model, r)
