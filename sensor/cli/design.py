@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
 from sensor.cli.parser import add_target_output_argument
 from sensor.cli.progress import add_quiet_argument, busy
 
@@ -100,8 +100,11 @@ def run(args: argparse.Namespace) -> int:
                seconds=best.seconds + (basis.seconds if basis else 0.0), files=[str(p) for p in paths])
     if basis is None:
         out["basis_unreachable"] = no_basis
+    else:  # the ratios the text prints
+        out.update(hysteresis_ratio=ours["hysteresis"] / theirs["hysteresis"], inverse_amplification=1 / ours["amplification"],
+                   resolution_ratio=ours["resolution_N"] / theirs["resolution_N"])
     if args.json:
-        print(json.dumps(out, indent=1))
+        print_json(out, paths)
         return 0
     print(f"range {args.range_N:g} N at {args.target_output:g} mm travel: {out['evaluations']} bodies evaluated "
           f"in {out['seconds']:.1f} s")
@@ -113,8 +116,8 @@ def run(args: argparse.Namespace) -> int:
               f"A = {d['amplification']:.3f}, k_out {d['k_out_N_per_mm']:.3f} N/mm, SE {d['strain_energy_mJ']:.4f} mJ, "
               f"stress {d['stress_utilisation']:.2f} x allowable")
     if theirs:
-        print(f"  DACM / basis: H {ours['hysteresis'] / theirs['hysteresis']:.3f} (1/A = {1 / ours['amplification']:.3f}), "
-              f"resolution {ours['resolution_N'] / theirs['resolution_N']:.3f}")
+        print(f"  DACM / basis: H {out['hysteresis_ratio']:.3f} (1/A = {out['inverse_amplification']:.3f}), "
+              f"resolution {out['resolution_ratio']:.3f}")
     else:
         print(f"  basis: {no_basis}")
     if args.robust:

@@ -9,7 +9,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
 from sensor.errors import SensorInputError
 
 STUDIES = ("observer", "controllers", "sensor")
@@ -116,7 +116,8 @@ def run(args) -> int:
         if issubclass(w.category, CapacityWarning):
             print(f"dacm loop: warning: {w.message}", file=sys.stderr)
     if args.json:
-        print(json.dumps(result, indent=1))
+        files = result.pop("files", None) or ([result.pop("plot")] if "plot" in result else [])
+        print_json(result, files)
     return 0
 
 

@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
 from sensor.cli.parser import add_target_output_argument
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
@@ -97,8 +96,7 @@ def run(args: argparse.Namespace) -> int:
             save_figure(intensity_figure(sensor, ds, args.tolerance), files[0])
             save_figure(calibration_figure(sensor, ds), files[1])
     if args.json:
-        print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
-                          "files": [str(f) for f in files]}, indent=1))
+        print_json({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross)}, files)
         return 0
     rows = [
         ("range", f"0 - {ds.range_N:.3f} N  (mirror travel {ds.target_output_mm:g} mm, "

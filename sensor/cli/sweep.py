@@ -9,7 +9,7 @@ import tomllib
 import warnings
 from pathlib import Path
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
 from sensor.cli.progress import CountingBar, add_quiet_argument, shown
 
 
@@ -161,5 +161,8 @@ def run(args: argparse.Namespace) -> int:
     from sensor.design_space.summary import summary, summary_text
 
     s = summary(ds, n_new, t_solve, time.monotonic() - t0, written)
-    print(json.dumps(s, indent=1) if args.json else summary_text(s))
+    if args.json:
+        print_json({k: v for k, v in s.items() if k != "files"}, written)
+    else:
+        print(summary_text(s))
     return 0

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
 from sensor.cli.progress import add_quiet_argument, busy
 
 MESHES = ("coarse", "default", "fine")
@@ -68,9 +67,8 @@ def run(args: argparse.Namespace) -> int:
                  f"A = {v.fe_summary['amplification']:.3f}, k_out = {v.fe_summary['k_out_N_per_mm']:.3f} N/mm;"
                  f" labels: hinge: stress one t inside the neck (MPa)")
         save_figure(stress_field_figure(v.fe, design, title, v.fe_summary["hinge_stress_MPa"]), path)
-        out["figure"] = str(path)
     if args.json:
-        print(json.dumps(out, indent=1))
+        print_json(out, paths and [make_out_dir(args.out) / paths[0].name])
         return 0
     print(f"{design.name}: continuum FE ({out['mesh']['elements']} quadratic triangles, "
           f"{out['mesh']['elements_across_hinge']:g} across each hinge) against the beam model")
@@ -84,6 +82,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"    hinge {h:>2}: {fe:7.2f} / {out['beam']['hinge_stress_MPa'][h]:7.2f} / "
               f"{out['errors_pct']['hinge_stress_MPa'][h]:+6.1f}   peak at root: beam (cut, Kt) "
               f"{out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
-    if "figure" in out:
-        print(f"wrote {out['figure']}")
+    if paths:
+        print(f"wrote {args.out / paths[0].name}")
     return 0

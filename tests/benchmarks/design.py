@@ -27,8 +27,8 @@ def main():
     print(json.dumps({"command": "dacm design --range 5", "repeats": REPEATS,
                       "wall_s": [round(w, 1) for w in walls], "median_wall_s": round(statistics.median(walls), 1),
                       "target_s": 60, "cores": os.cpu_count(), "evaluations": last["evaluations"],
-                      "range_N": round(last["range_N"], 4), "hysteresis": round(last["hysteresis"], 5),
-                      "basis_hysteresis": round(last["basis"]["hysteresis"], 5),
+                      "range_N": round(last["range_N"], 4), "hysteresis_fraction": round(last["hysteresis_fraction"], 5),
+                      "basis_hysteresis_fraction": round(last["basis"]["hysteresis_fraction"], 5),
                       "load_average_1min": round(os.getloadavg()[0], 1)}))
 
 

@@ -148,4 +148,4 @@ def test_render_json_is_the_solve_and_the_file(dacm, tmp_path):
     # render solves with the solver's default increments, `solve` with 8: both converged
     # to the Newton residual (about 1e-10 relative), so equal to 1e-9
     assert r["amplification"] == pytest.approx(solved["amplification"], rel=1e-9)
-    assert r["displacement_scale"] == 1.0 and Path(r["file"]).is_file()
+    assert r["displacement_scale"] == 1.0 and Path(r["files"][0]["path"]).is_file()

@@ -14,7 +14,7 @@ def test_solve_json_has_every_qualifier(capsys):
     assert main(["solve", "--preset", "sample-b", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     for key in ("amplification", "A_kin", "k_out_N_per_mm", "sensitivity_mm_per_N", "strain_energy_mJ",
-                "input_force_N", "input_travel_mm", "output_travel_mm", "hysteresis_predicted",
+                "input_force_N", "input_travel_mm", "output_travel_mm", "hysteresis_fraction",
                 "quality_mm_per_N", "increments", "residual", "converged", "hinge_rotation_deg"):
         assert key in out, key
     r = solve(build_beam_model(preset("sample-b")))
