@@ -93,7 +93,10 @@ def plot_ratio_panel(ax, ds: xr.Dataset, var: str, hinges: str) -> None:
             one = ax.contour(x, y, z, levels=[1.0], colors="crimson", linewidths=2.2, zorder=3)
             for t in ax.clabel(one, fmt="1", fontsize=9, inline_spacing=8):
                 t.set(fontweight="bold", bbox=ONE_LABEL_BOX, zorder=4)
-        bar = ax.figure.colorbar(cf, ax=ax, shrink=0.9, format="%.2f", spacing="uniform")
+        # one precision per bar: two decimals, three when the smallest band edge needs them
+        small = np.abs(levels[levels != 0]).min() if (levels != 0).any() else 1.0
+        decimals = 3 if small < 0.01 else 2
+        bar = ax.figure.colorbar(cf, ax=ax, shrink=0.9, format=f"%.{decimals}f", spacing="uniform")
         bar.set_label(LABELS.get(var, var) + ("" if quantiles else " (linear)"), fontsize=9)
     for name, (p1, p2) in SAMPLES.items() if hinges == SAMPLES_HINGES else ():
         i, j = np.abs(x - p1).argmin(), np.abs(y - p2).argmin()
