@@ -32,7 +32,7 @@ CASES = {
     "export": (["--preset", "sample-a", "--dxf", "--beam-model", "--out", "{out}"], True),
     "render": (["--preset", "sample-b", "--window-size", "320x240", "--out", "{out}"], True),
     "verify": (["--preset", "sample-b", "--mesh", "coarse", "--out", "{out}"], True),
-    "sweep": (["--hinges", "03-03", "--phi1", "20:24:2", "--phi2", "12:16:2", "--no-plots", "--out", "{out}"], True),
+    "sweep": (["--hinges", "03-03", "--phi1", "20:30:5", "--phi2", "10:20:5", "--no-plots", "--out", "{out}"], True),
     "design": (["--range", "5", "--workers", "1", "--out", "{out}"], True),
     "sensor": (["--preset", "sample-a-as-cut", "--out", "{out}"], True),
     "measure": (["{loop}", "--preset", "sample-b-as-cut", "--calibrate", "--out", "{out}"], True),
@@ -62,27 +62,32 @@ def _keys(value, path=""):
 
 @pytest.fixture(scope="module")
 def answers(tmp_path_factory):
-    """Every command's (JSON answer, text answer or None, output folder)."""
+    """command -> (JSON answer, text answer or None, output folder), each command run when
+    a test first asks for it."""
     from sensor.cli import main
 
     loop = _synthetic(0.0)
     csv = tmp_path_factory.mktemp("loop") / "loop.csv"
     np.savetxt(csv, np.c_[loop.force_N, loop.response], delimiter=",", header="force_N,displacement_mm",
                comments="")
-    out = {}
-    for command, (argv, _) in CASES.items():
-        folders = [tmp_path_factory.mktemp(f"{command}-{kind}") for kind in ("json", "text")]
-        runs = [None, None]
-        for n, (folder, extra) in enumerate(zip(folders, (["--json"], []))):
-            if n and command not in TEXT:
-                continue
-            words = [a.replace("{out}", str(folder)).replace("{loop}", str(csv)) for a in argv]
-            buf = io.StringIO()
-            with contextlib.redirect_stdout(buf):
-                assert main([command, *words, "--quiet", *extra]) == 0, command
-            runs[n] = buf.getvalue()
-        out[command] = (json.loads(runs[0]), runs[1], folders[0])
-    return out
+
+    class Answers(dict):
+        def __missing__(self, command):
+            argv = CASES[command][0]
+            folders = [tmp_path_factory.mktemp(f"{command}-{kind}") for kind in ("json", "text")]
+            runs = [None, None]
+            for n, (folder, extra) in enumerate(zip(folders, (["--json"], []))):
+                if n and command not in TEXT:
+                    continue
+                words = [a.replace("{out}", str(folder)).replace("{loop}", str(csv)) for a in argv]
+                buf = io.StringIO()
+                with contextlib.redirect_stdout(buf):
+                    assert main([command, *words, "--quiet", *extra]) == 0, command
+                runs[n] = buf.getvalue()
+            self[command] = (json.loads(runs[0]), runs[1], folders[0])
+            return self[command]
+
+    return Answers()
 
 
 def test_every_command_with_json_is_covered():
