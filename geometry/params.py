@@ -48,15 +48,20 @@ class Material:
     allowable_stress_MPa: float = math.inf
 
 
-#: Delrin with the thesis' calibrated E = 2.3 GPa (section 6.2.4); ABS as printed (FDM),
-#: E about 1.8 GPa, the thesis' softer second material (section 6.1.3).
+#: Delrin's effective E is the beam model's one parameter calibrated on hardware: the basis
+#: specimen as cut (Table 7 hinges, 0.8 mm kerf fillets) at its measured 0.227 mm/N
+#: (Table 6), as the thesis calibrated its 2.3 GPa with its own model (section 6.2.4);
+#: ``sensor.mechanics.table6.calibrate_modulus`` recomputes it (checked in
+#: tests/mechanics/test_table6.py). ABS as printed (FDM), E about 1.8 GPa, the thesis'
+#: softer second material (section 6.1.3), is not calibrated.
+DELRIN_E_MPA = 1794.5
 #: Allowable stresses are half the tensile yield stress, a margin for the creep and fatigue
 #: of a sensor loaded for hours: acetal homopolymer (Delrin) reaches 72 MPa in tension
 #: (J. M. Margolis (ed.), Engineering Plastics Handbook, McGraw-Hill 2006, Table 5.5), so
 #: 36 MPa; moulded impact-grade ABS yields at 42.7 MPa (ASTM D638, guaranteed minimum of the
 #: APAC Infrastructure ABS specification; FDM prints are weaker across layers), so 20 MPa.
 MATERIALS: dict[str, Material] = {
-    "delrin": Material("delrin", 2300.0, 0.35, 36.0),
+    "delrin": Material("delrin", DELRIN_E_MPA, 0.35, 36.0),
     "abs": Material("abs", 1800.0, 0.35, 20.0),
 }
 
@@ -80,6 +85,11 @@ class Design:
     (9-12 are unused by the basis body). Defaults are documented in DESIGN section 3 and the
     README; ``hinge_length_mm`` is the one effective parameter calibrated on the basis
     specimen (see ``sensor.mechanics.table6``).
+
+    The part is predicted as cut (DESIGN section 16): ``kerf_mm`` is the cutting jet's width
+    (every re-entrant corner, every hinge root included, comes out rounded with radius
+    kerf / 2; 0 predicts the drawing, sharp corners), ``root_radius_mm`` a root fillet drawn
+    on purpose (the larger of the two is cut).
     """
 
     phi1_deg: float = 22.0
@@ -100,6 +110,7 @@ class Design:
     fiber_clearance_mm: float = 1.2
     material: Material = MATERIALS["delrin"]
     kerf_mm: float = 0.8
+    root_radius_mm: float = 0.0
     min_feature_mm: float = 0.25
     name: str = "custom"
 
@@ -129,7 +140,8 @@ FIELD_RULES: dict[str, Number] = {
         "width_mm", "height_mm", "sheet_thickness_mm", "hinge_length_mm", "link_width_mm",
         "plate_thickness_mm", "knee_width_mm", "knee_height_mm", "platform_width_mm",
         "platform_thickness_mm", "fiber_post_width_mm", "fiber_clearance_mm", "min_feature_mm")},
-    "kerf_mm": Number(0.0, MAX_KERF_MM, lo_open=True, unit="mm"),
+    "kerf_mm": Number(0.0, MAX_KERF_MM, unit="mm"),
+    "root_radius_mm": Number(0.0, MAX_KERF_MM, unit="mm"),
 }
 _MATERIAL_RULES = {"E_MPa": Number(0.0, 1e7, lo_open=True, unit="MPa"),
                    "nu": Number(0.0, 0.5, hi_open=True)}
@@ -159,6 +171,13 @@ def validate(d: Design) -> None:
                              "(MPa; inf for no stress limit)")
     if not is_stem(d.name):
         raise ParameterError(f"name = {d.name!r}: must be {STEM_RULE}")
+
+
+def cut_note(kerf_mm: float | None) -> str:
+    """What a prediction at this kerf (mm) is of: the part as cut (DESIGN section 16) or the drawing."""
+    if kerf_mm is None:
+        return "beam model as given"
+    return f"as cut, kerf {kerf_mm:g} mm" if kerf_mm > 0 else "as drawn (kerf 0: sharp hinge roots)"
 
 
 def make_design(phi1_deg: float = 22.0, phi2_deg: float | None = 17.2, hinges: str = "05-03",

@@ -12,19 +12,26 @@ JSON schema ``dacm-beam-model/1`` (units mm, MPa)::
      "nodes": [[x, y], ...],
      "members": [{"kind": "hinge"|"link"|"rigid", "start": int, "end": int,
                   "thickness_mm": float, "depth_mm": float, "hinge": int (0 if none),
-                  "name": str}, ...],
+                  "name": str,
+                  "profile": [[s, t], ...] (optional), "neck_mm": [s0, s1] (optional),
+                  "root_radius_mm": [r_a, r_b] (optional)}, ...],
      "supports": [{"node": int, "dofs": ["x", "y", "rz"]}, ...],
      "input": {"node": int, "direction": [dx, dy]},
      "output": {"node": int, "direction": [dx, dy]}}
 
 ``thickness_mm`` is the in-plane size (bending about z), ``depth_mm`` the out-of-plane size
 (the sheet thickness); ``rigid`` members join nodes of one rigid body and have no
-compliance. ``direction`` is a unit vector: the input force acts along it, and the output
+compliance. A member of varying thickness (a hinge with its root fillets) gives
+``profile``: its in-plane thickness t (mm) at stations s (mm from its start, increasing,
+from 0 to its length), linear between stations; ``thickness_mm`` is then the neck's, the
+thinnest, ``neck_mm`` the stations where the neck of that thickness starts and ends, and
+``root_radius_mm`` the fillet radius at each end (0: a sharp root). ``direction`` is a unit vector: the input force acts along it, and the output
 travel is measured along it.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import reprlib
@@ -41,14 +48,26 @@ SCHEMA = "dacm-beam-model/1"
 MEMBER_KINDS = ("hinge", "link", "rigid")
 DOF_NAMES = ("x", "y", "rz")
 
-#: Depth, in hinge thicknesses t, at which a hinge is effectively clamped inside each body or
-#: link it joins. A strip built into a wider elastic body is not clamped at the body's face:
-#: the material round its root turns and shears with it, which adds a root compliance that
-#: scales with t (the same elasticity problem at every root, so one constant for all: the
-#: hinge's bending length grows by 2 k t). k is the beam model's one calibrated parameter:
-#: the least-squares fit of k_out to the continuum FE of 6 presets and 12 sweep cells
-#: (tests/mechanics/data/continuum_table.json; refit by tests/mechanics/test_continuum_table.py).
-ROOT_DEPTH_PER_THICKNESS = 0.35
+#: The hinge root rule of the part as cut (DESIGN sections 14 and 16): three constants,
+#: fitted once to the continuum FE of cut and drawn profiles (kerf 0 to 1.2 mm, hinges
+#: 0.3-1.2 mm; tests/mechanics/test_continuum_table.py refits them and checks held-out bodies).
+#:
+#: A strip built into a wider elastic body is not clamped at the body's face: the material
+#: round its root turns and shears with it, a root compliance that scales with the strip's
+#: size there. The member reaches ``ROOT_DEPTH_PER_THICKNESS`` x t plus
+#: ``ROOT_DEPTH_PER_FILLET`` x the width its fillets add at the face past each face
+#: (:func:`root_depth_mm`).
+ROOT_DEPTH_PER_THICKNESS = 0.47
+ROOT_DEPTH_PER_FILLET = 0.11
+#: A root fillet widens the neck faster than the bending stress can spread into it (plane
+#: sections do not stay plane where the section grows steeply): each side's fillet counts
+#: up to ``FILLET_SPREAD_SLOPE`` x the distance from where it meets the neck (a load-spread
+#: angle of about 15 deg), the rest of the arc carries little.
+FILLET_SPREAD_SLOPE = 0.26
+#: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
+#: points and taken linear between them: the flexibility integrals of a quarter circle
+#: sampled at 8 points are within 0.1 % of the exact arc's).
+FILLET_STATIONS = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +90,18 @@ class BeamModel:
     nu: float
     material_name: str = "custom"
     labels: dict = field(default_factory=dict)  # optional named nodes, for reports
+    profile_mm: tuple = ()            # per member: None (uniform) or (k, 2) stations s, t
+    neck_mm: np.ndarray | None = None  # (m, 2) stations where the neck starts and ends
+    root_radius_mm: np.ndarray | None = None  # (m, 2) fillet radius at each end (0: sharp)
+
+    def __post_init__(self):
+        m = len(self.member_kind)
+        if not self.profile_mm:
+            object.__setattr__(self, "profile_mm", (None,) * m)
+        if self.neck_mm is None:
+            object.__setattr__(self, "neck_mm", np.column_stack([np.zeros(m), self.lengths_mm]))
+        if self.root_radius_mm is None:
+            object.__setattr__(self, "root_radius_mm", np.zeros((m, 2)))
 
     @property
     def lengths_mm(self) -> np.ndarray:
@@ -95,12 +126,108 @@ def _unit(v) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def build_beam_model(design: Design, layout: Layout | None = None, input_guided: bool = True,
-                     root_depth_per_thickness: float = ROOT_DEPTH_PER_THICKNESS) -> BeamModel:
-    """The beam model of a design, hinges numbered as in Figure 48 (see geometry.params).
+def root_depth_mm(t_mm: float, face_mm: float) -> float:
+    """How far past a face (mm) a hinge of neck thickness t, t_face wide where it leaves
+    the face, is effectively clamped in the body (see :data:`ROOT_DEPTH_PER_THICKNESS`)."""
+    return ROOT_DEPTH_PER_THICKNESS * t_mm + ROOT_DEPTH_PER_FILLET * (face_mm - t_mm)
 
-    Each hinge member starts ``root_depth_per_thickness`` x its thickness inside the body it
-    joins and ends as far inside the link (see :data:`ROOT_DEPTH_PER_THICKNESS`).
+
+def _fillet_sides(t_mm: float, radius_mm: float, shoulder_mm: float, gamma_deg: float) -> list[tuple]:
+    """The root fillets on the two sides of a neck meeting a face (mm, stations along the
+    neck measured from where its axis crosses the face).
+
+    The face's normal leans ``gamma_deg`` from the neck's axis, so the two re-entrant
+    corners are 90 - gamma (acute, at +t/2 tan gamma) and 90 + gamma (obtuse, at
+    -t/2 tan gamma). A fillet of radius r in a corner of angle theta is tangent to the neck
+    r / tan(theta / 2) from the corner. A face that steps out by less than r beside the
+    neck (``shoulder_mm``, square faces only) ends the arc on the shoulder's corner.
+    Returns per side (f, n, r): the arc r - sqrt(r^2 - (n - s)^2) fills the side from the
+    station f where it leaves the face to the station n where it meets the neck.
+    """
+    g = math.radians(gamma_deg)
+    sides = []
+    for theta, corner in ((math.pi / 2 - g, t_mm / 2 * math.tan(g)), (math.pi / 2 + g, -t_mm / 2 * math.tan(g))):
+        if radius_mm <= 0:
+            sides.append((corner, corner, 0.0))
+            continue
+        if gamma_deg == 0 and shoulder_mm < radius_mm:
+            reach = math.sqrt(radius_mm**2 - (radius_mm - shoulder_mm) ** 2)
+            sides.append((corner, corner + reach, radius_mm))
+            continue
+        d = radius_mm / math.tan(theta / 2)
+        sides.append((corner + d * math.cos(theta), corner + d, radius_mm))
+    return sides
+
+
+def _fill_mm(s: np.ndarray, side: tuple) -> np.ndarray:
+    """One side's fillet height above the neck edge (mm) at stations s (see _fillet_sides)."""
+    f, n, r = side
+    if r <= 0:
+        return np.zeros_like(s)
+    gap = np.clip(n - s, 0.0, r)
+    return np.minimum(np.where(s < n, r - np.sqrt(r * r - gap * gap), 0.0), FILLET_SPREAD_SLOPE * np.clip(n - s, 0.0, None))
+
+
+@functools.lru_cache(maxsize=4096)
+def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray, tuple, float, float]:
+    """The thickness profile of a hinge member of the cut part (mm).
+
+    The neck of thickness t and drawn length l_h runs between two faces; at each face the
+    cut leaves a fillet of radius r in both re-entrant corners (``ends``: (r, shoulder,
+    gamma_deg) at the start and at the end, see :func:`_fillet_sides`; r = kerf / 2 for a
+    water-jet, 0 for the drawing). The strip leaves the face, where the first fillet
+    leaves it, t plus both fillets' heights wide; the member reaches
+    :data:`ROOT_DEPTH_PER_THICKNESS` x that width further, into the body, where the elastic
+    root is taken as clamped.
+
+    Cached (a sweep's cells share their hinges); the stations are read-only.
+    Returns (stations (k, 2) of s and t, (s0, s1) where the uniform neck starts and ends,
+    member length, how far behind the start face's axis crossing the member starts), all
+    in mm from the member's start: ``k`` = 2 + 4 :data:`FILLET_STATIONS` for every hinge, so the profiles
+    of a batch stack.
+    """
+    start = _fillet_sides(t_mm, *ends[0])
+    # the end face crosses the axis at l_h; its sides, mirrored, in the member's stations
+    end = [(neck_length_mm - f, neck_length_mm - n, r) for f, n, r in _fillet_sides(t_mm, *ends[1])]
+    face0, face1 = max(f for f, _, _ in start), min(f for f, _, _ in end)
+    neck0, neck1 = max(n for _, n, _ in start), min(n for _, n, _ in end)
+    arc = np.linspace(0.0, 1.0, FILLET_STATIONS)
+    s = np.concatenate([face0 + (n - face0) * arc for _, n, _ in start]
+                       + [face1 - (face1 - n) * arc for _, n, _ in end])
+    s = np.sort(np.clip(s, face0, face1))
+
+    def width(x):  # t plus, on each side of the neck, the higher of its two fillets
+        return t_mm + sum(np.maximum(_fill_mm(x, a), _fill_mm(-x, (-f, -n, r)))
+                          for a, (f, n, r) in zip(start, end))
+
+    t = width(s)
+    da, db = root_depth_mm(t_mm, t[0]), root_depth_mm(t_mm, t[-1])
+    st = np.column_stack([np.concatenate([[face0 - da], s, [face1 + db]]),
+                          np.concatenate([[t[0]], t, [t[-1]]])])
+    shift = da - face0  # the member starts this far behind the start face's axis crossing
+    st[:, 0] += shift
+    st.flags.writeable = False  # cached: a sweep's cells share their hinges' profiles
+    return st, (float(neck0 + shift), float(neck1 + shift)), float(st[-1, 0]), float(shift)
+
+
+def root_radius_mm(design: Design) -> float:
+    """The fillet radius (mm) at every hinge root of the part as cut: the jet's radius,
+    kerf / 2 (thesis section 6.1.2.1: water-jet cut; DESIGN section 16), or the design's own
+    drawn root radius if larger. 0 with ``kerf_mm = 0`` and no drawn radius: the drawing."""
+    return max(design.kerf_mm / 2.0, design.root_radius_mm)
+
+
+#: A face beside a neck that is part of a body: shoulder wide enough for any fillet.
+_BODY_SHOULDER_MM = math.inf
+
+
+def build_beam_model(design: Design, layout: Layout | None = None, input_guided: bool = True) -> BeamModel:
+    """The beam model of the part as cut (``design.kerf_mm``; 0: the drawing), hinges
+    numbered as in Figure 48 (see geometry.params).
+
+    Each hinge member is the neck with its root fillets (:func:`hinge_profile`), reaching
+    :data:`ROOT_DEPTH_PER_THICKNESS` x its face width into the body it joins and into the
+    link.
 
     The base plate is clamped. With ``input_guided`` (the default) the input port is guided
     sideways (its x is held), as the thesis' X-stage held it when it pushed the specimens
@@ -128,11 +255,25 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     inp = node(lay.input_point)  # first node of the input body: its reference node
     yc = lay.y_top + d.plate_thickness_mm / 2           # the top plate's centre line
     plate_mid = node((0.0, yc))
+    # every hinge: its thickness profile between its face on a body and its face on a link
+    r = root_radius_mm(d)
+    profiles, body_depth = {}, {}  # hinge -> hinge_profile(...), its root depth into the body
+    for name, _, h1, h2 in side_members(lay):
+        t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
+        # the side links lean phi1 from the normals of the plates' and knees' faces, the
+        # middle links rise phi2 from the normals of the knees' and platform's side faces;
+        # a link's own end face is square to it
+        lean = d.phi2_deg if "middle" in name else d.phi1_deg
+        profiles[h1] = p1 = hinge_profile(t1, d.hinge_length_mm, ((r, _BODY_SHOULDER_MM, lean),
+                                                                  (r, (d.link_width_mm - t1) / 2, 0.0)))
+        profiles[h2] = p2 = hinge_profile(t2, d.hinge_length_mm, ((r, (d.link_width_mm - t2) / 2, 0.0),
+                                                                  (r, _BODY_SHOULDER_MM, lean)))
+        body_depth[h1] = p1[3]                                   # the body is at the start of h1
+        body_depth[h2] = p2[2] - p2[3] - d.hinge_length_mm       # and at the end of h2
     # the plate bends up to the top hinges' effective roots, inside it (see the side chains)
     lean = (lay.P3 - lay.P2) / np.linalg.norm(lay.P3 - lay.P2)
-    k = root_depth_per_thickness
-    plate_l = node((lay.P3[0] + lean[0] * k * d.hinge_thickness_mm[3], yc))
-    plate_r = node((-lay.P3[0] - lean[0] * k * d.hinge_thickness_mm[4], yc))
+    plate_l = node((lay.P3[0] + lean[0] * body_depth[4], yc))
+    plate_r = node((-lay.P3[0] - lean[0] * body_depth[5], yc))
     top_l, top_r = node(lay.P3), node(mirrored(lay.P3))
     anchor = {_key(nodes[i]): i for i in (base_l, base_r, knee_lo_l, knee_hi_l, knee_lo_r, knee_hi_r,
                                           top_l, top_r)}
@@ -161,6 +302,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
                     ("rigid", out, q_r, d.platform_thickness_mm, 0, "platform")]
 
     lh = d.hinge_length_mm
+    shape: dict[int, tuple] = {}  # member index -> (profile, neck stations, root radii)
     for name, (a, b), h1, h2 in side_members(lay):
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         (ax, ay), (bx, by) = a.tolist(), b.tolist()
@@ -168,12 +310,17 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         ux, uy = (bx - ax) / length, (by - ay) / length
         ia = anchor[_key(a)]
         ib = anchor[_key(b)]
-        # elastic roots: each hinge is clamped k t inside the body and inside the link it
-        # joins (rigid offsets carry the bodies out to those points); the link's hinge ends
-        # are a + l_h u and b - l_h u (member_chain)
-        ra, rb = node((ax - ux * k * t1, ay - uy * k * t1)), node((bx + ux * k * t2, by + uy * k * t2))
-        j1 = node(((ax + ux * lh) + ux * k * t1, (ay + uy * lh) + uy * k * t1))
-        j2 = node(((bx - ux * lh) - ux * k * t2, (by - uy * lh) - uy * k * t2))
+        # elastic roots: each hinge member starts its root depth inside the body and ends its
+        # root depth inside the link (rigid offsets carry the bodies out to those points); the
+        # link's hinge ends are a + l_h u and b - l_h u (member_chain)
+        (p1, neck1, len1, _), (p2, neck2, len2, _) = profiles[h1], profiles[h2]
+        in1, in2 = body_depth[h1], body_depth[h2]        # root depths into the bodies
+        out1, out2 = len1 - lh - in1, len2 - lh - in2    # and into the link
+        ra, rb = node((ax - ux * in1, ay - uy * in1)), node((bx + ux * in2, by + uy * in2))
+        j1 = node(((ax + ux * lh) + ux * out1, (ay + uy * lh) + uy * out1))
+        j2 = node(((bx - ux * lh) - ux * out2, (by - uy * lh) - uy * out2))
+        shape[len(members) + 1] = (p1, neck1, (r, r))
+        shape[len(members) + 3] = (p2, neck2, (r, r))
         members += [("rigid", ia, ra, t1, 0, f"hinge {h1} root"),
                     ("hinge", ra, j1, t1, h1, f"hinge {h1}"),
                     ("link", j1, j2, d.link_width_mm, 0, f"{name} link"),
@@ -182,8 +329,14 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
 
     kinds, starts, ends, thick, hinge, names = zip(*members)
     m = len(members)
+    nodes_arr = np.array(nodes)
+    lengths = np.linalg.norm(nodes_arr[list(ends)] - nodes_arr[list(starts)], axis=1)
+    neck = np.column_stack([np.zeros(m), lengths])
+    radius = np.zeros((m, 2))
+    for i, (_, span, radii) in shape.items():
+        neck[i], radius[i] = span, radii
     return BeamModel(
-        nodes=np.array(nodes),
+        nodes=nodes_arr,
         member_nodes=np.column_stack([starts, ends]).astype(int),
         member_kind=tuple(kinds),
         thickness_mm=np.array(thick, dtype=float),
@@ -199,6 +352,9 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         nu=d.material.nu,
         material_name=d.material.name,
         labels={"input": inp, "output": out, "base left": base_l, "base right": base_r},
+        profile_mm=tuple(shape[i][0] if i in shape else None for i in range(m)),
+        neck_mm=neck,
+        root_radius_mm=radius,
     )
 
 
@@ -211,21 +367,30 @@ def model_to_dict(model: BeamModel) -> dict:
         "units": {"length": "mm", "modulus": "MPa"},
         "material": {"name": model.material_name, "E_MPa": model.E_MPa, "nu": model.nu},
         "nodes": model.nodes.tolist(),
-        "members": [
-            {"kind": k, "start": int(s), "end": int(e), "thickness_mm": float(t),
-             "depth_mm": float(b), "hinge": int(h), "name": n}
-            for k, (s, e), t, b, h, n in zip(model.member_kind, model.member_nodes,
-                                            model.thickness_mm, model.depth_mm,
-                                            model.hinge_number, model.member_name)
-        ],
+        "members": [_member_to_dict(model, i) for i in range(len(model.member_kind))],
         "supports": [{"node": int(n), "dofs": list(dofs)} for n, dofs in model.supports],
         "input": {"node": model.input_node, "direction": model.input_direction.tolist()},
         "output": {"node": model.output_node, "direction": model.output_direction.tolist()},
     }
 
 
+def _member_to_dict(model: BeamModel, i: int) -> dict:
+    s, e = model.member_nodes[i]
+    out = {"kind": model.member_kind[i], "start": int(s), "end": int(e),
+           "thickness_mm": float(model.thickness_mm[i]), "depth_mm": float(model.depth_mm[i]),
+           "hinge": int(model.hinge_number[i]), "name": model.member_name[i]}
+    if model.profile_mm[i] is not None:
+        out["profile"] = model.profile_mm[i].tolist()
+        out["neck_mm"] = model.neck_mm[i].tolist()
+        out["root_radius_mm"] = model.root_radius_mm[i].tolist()
+    return out
+
+
 _MODEL_KEYS = {"schema", "units", "material", "nodes", "members", "supports", "input", "output"}
-_MEMBER_KEYS = {"kind", "start", "end", "thickness_mm", "depth_mm", "hinge", "name"}
+_MEMBER_KEYS = {"kind", "start", "end", "thickness_mm", "depth_mm", "hinge", "name", "profile", "neck_mm",
+                "root_radius_mm"}
+#: Largest number of stations in a member's thickness profile.
+MAX_PROFILE_STATIONS = 1000
 _COORD = Number(-MAX_LENGTH_MM, MAX_LENGTH_MM, unit="mm")
 _SIZE = Number(0.0, MAX_LENGTH_MM, lo_open=True, unit="mm")
 #: Largest model accepted (nodes or members): the designs have a few dozen.
@@ -308,8 +473,10 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
         name = m.get("name", f"member {i}")
         if not isinstance(name, str):
             fail(f"member {i} name = {name!r}: must be a string")
+        length = math.dist(nodes[start], nodes[end])
+        shape = _member_shape(m, i, length, fail, number) if "profile" in m else (None, (0.0, length), (0.0, 0.0))
         members.append((m["kind"], start, end, size.get("thickness_mm", 0.0),
-                        size.get("depth_mm", 0.0), int(hinge), name))
+                        size.get("depth_mm", 0.0), int(hinge), name, *shape))
     supports = []
     for i, sp in enumerate(items(data["supports"], "supports")):
         table(sp, f"support {i}", {"node", "dofs"}, ("node", "dofs"))
@@ -321,7 +488,7 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
     for port in ("input", "output"):
         p = table(data[port], port, {"node", "direction"}, ("node", "direction"))
         ports[port] = (index(p["node"], f"{port} node", n), direction(p["direction"], f"{port} direction"))
-    kind, start, end, thick, depth, hinge, name = zip(*members)
+    kind, start, end, thick, depth, hinge, name, profile, neck, radius = zip(*members)
     return BeamModel(
         nodes=np.array(nodes, dtype=float),
         member_nodes=np.array([start, end], dtype=int).T.reshape(-1, 2),
@@ -338,7 +505,34 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
         E_MPa=E,
         nu=nu,
         material_name=str(mat.get("name", "custom")),
+        profile_mm=profile,
+        neck_mm=np.array(neck, dtype=float),
+        root_radius_mm=np.array(radius, dtype=float),
     )
+
+
+def _member_shape(m: dict, i: int, length: float, fail, number) -> tuple:
+    """A member's thickness profile, neck stations and root radii from its JSON entry."""
+    if m["kind"] == "rigid":
+        fail(f"member {i}: a rigid member has no thickness profile")
+    prof = m["profile"]
+    if not (isinstance(prof, list) and 2 <= len(prof) <= MAX_PROFILE_STATIONS
+            and all(isinstance(p, list) and len(p) == 2 for p in prof)):
+        fail(f"member {i} profile = {reprlib.repr(prof)}: must be a list of 2 to "
+             f"{MAX_PROFILE_STATIONS} [s, t] stations (mm)")
+    st = np.array([[number(v, f"member {i} profile {c}", _COORD if c == "s" else _SIZE)
+                    for v, c in zip(p, "st")] for p in prof])
+    if st[0, 0] != 0.0 or np.any(np.diff(st[:, 0]) < 0) or abs(st[-1, 0] - length) > 1e-6 * max(length, 1.0):
+        fail(f"member {i} profile: stations must rise from 0 to the member's length {length:.6g} mm")
+    def pair(key: str, default: list, rule: Number) -> tuple:
+        value = m.get(key, default)
+        if not (isinstance(value, list) and len(value) == 2):
+            fail(f"member {i} {key} = {reprlib.repr(value)}: must be [start, end] (mm)")
+        return tuple(number(v, f"member {i} {key}", rule) for v in value)
+
+    neck = pair("neck_mm", [0.0, length], _COORD)
+    radius = pair("root_radius_mm", [0.0, 0.0], Number(0.0, MAX_LENGTH_MM, unit="mm"))
+    return st, neck, radius
 
 
 def model_to_json(model: BeamModel) -> str:

@@ -60,6 +60,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from geometry.atomic import save_figure
+    from geometry.params import cut_note
     from geometry.checks import assert_feasible
     from sensor.errors import UsageError
     from sensor.readout.datasheet import cross_axis, datasheet
@@ -96,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
             save_figure(intensity_figure(sensor, ds, args.tolerance), files[0])
             save_figure(calibration_figure(sensor, ds), files[1])
     if args.json:
-        print_json({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross)}, files)
+        print_json({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross), "kerf_mm": design.kerf_mm},
+                   files)
         return 0
     rows = [
         ("range", f"0 - {ds.range_N:.3f} N  (mirror travel {ds.target_output_mm:g} mm, "
@@ -113,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
                        f"lateral vs axial input travel; tilt {cross.tilt_deg:+.2f} deg; "
                        "thesis 1.66 % delrin)"),
     ]
-    print(f"{design.name} ({design.material.name})")
+    print(f"{design.name} ({design.material.name}, {cut_note(design.kerf_mm)})")
     for k, v in rows:
         print(f"  {k:<14} {v}")
     for f in files:

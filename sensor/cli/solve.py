@@ -37,6 +37,9 @@ def register(subparsers) -> None:
     p.add_argument("--increments", type=int, default=8, metavar="N",
                    help="load increments (default 8; Newton corrections make the result "
                         "independent of it)")
+    p.add_argument("--linear", action="store_true",
+                   help="the linear limit: solve to a thousandth of the target travel and scale "
+                        "forces, travels and strain energy to the target (small-deflection values)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
 
@@ -50,7 +53,10 @@ def run(args: argparse.Namespace) -> int:
     from sensor.errors import UsageError
     from sensor.mechanics.hysteresis import DEFAULT_LAW
     from sensor.mechanics.qualifiers import qualify
-    from sensor.mechanics.solver import SolverOptions, solve
+    from geometry.params import cut_note
+    from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
+    from sensor.mechanics.solver import SolverOptions, scaled_result, solve
+    from sensor.mechanics.stress import hinge_stresses, stress_check
 
     check_flags(args, RULES)
     if args.model is not None:
@@ -60,15 +66,23 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"--model cannot be combined with --{shape[0]}")
         model, name, a_kin = load_model(args.model), args.model.stem, None
         size = float(np.ptp(model.nodes, axis=0).max())
+        design = None
     else:
         design = design_from_args(args)
         assert_feasible(design)
         model, name, size = build_beam_model(design), design.name, design.height_mm
         a_kin = kinematic_amplification(design.phi1_deg, design.phi2_deg)
     check_flags(args, {"target_output": travel_rule(size)})
-    r = solve(model, target_output_mm=args.target_output, target_force_N=args.target_force,
+    target_output = args.target_output if args.target_output is not None or args.target_force is not None else 1.0
+    scale = LINEAR_LIMIT_FRACTION if args.linear else 1.0
+    r = solve(model, target_output_mm=None if target_output is None else target_output * scale,
+              target_force_N=None if args.target_force is None else args.target_force * scale,
               options=SolverOptions(increments=args.increments))
+    if args.linear:
+        r = scaled_result(r, 1.0 / scale)
     q = qualify(r, DEFAULT_LAW)
+    stress = stress_check(design, model, r) if design is not None else None
+    hinge_stress = {str(h): s.peak_MPa for h, s in hinge_stresses(model, r).items()}
     out = {
         "design": name,
         "amplification": r.amplification,
@@ -86,6 +100,11 @@ def run(args: argparse.Namespace) -> int:
         "residual": r.residual,
         "converged": r.converged,
         "hinge_rotation_deg": {str(k): v for k, v in r.hinge_rotation_deg.items()},
+        "linear": bool(args.linear),
+        "kerf_mm": None if design is None else design.kerf_mm,
+        "hinge_stress_MPa": hinge_stress,
+        "peak_stress_MPa": max(hinge_stress.values()),
+        "stress_utilisation": None if stress is None else stress.utilisation,
     }
     require_finite(f"solve of {name}", out)
     if args.json:
@@ -101,8 +120,11 @@ def run(args: argparse.Namespace) -> int:
                                        f"calibrated on the {DEFAULT_LAW.calibrated_on} specimen)"),
             ("quality sensitivity / H", f"{q.quality_mm_per_N:.3f} mm/N"),
             ("increments / residual", f"{r.increments} / {r.residual:.1e} (converged)"),
-            ("hinge rotations", ", ".join(f"{k}: {v:+.2f}" for k, v in r.hinge_rotation_deg.items()) + " deg")]
-    print(f"{name}")
+            ("hinge rotations", ", ".join(f"{k}: {v:+.2f}" for k, v in r.hinge_rotation_deg.items()) + " deg"),
+            ("peak hinge stress", ", ".join(f"{k}: {v:.1f}" for k, v in hinge_stress.items()) + " MPa")]
+    if stress is not None:
+        rows.append(("stress rule", stress.message + f" (utilisation {stress.utilisation:.2f})"))
+    print(f"{name} ({cut_note(None if design is None else design.kerf_mm)})" + ("  linear limit" if args.linear else ""))
     for k, v in rows:
         print(f"  {k:<26} {v}")
     return 0

@@ -68,8 +68,8 @@ class Grid:
         for field_, rule, value in (("START", _ANGLE, start), ("STOP", _ANGLE, stop), ("N", _GRID_N, n)):
             if not rule.ok(value):
                 raise SweepError(f"{name} = {text}: {field_} = {value!r}: must be {rule.rule}")
-        if n > 1 and stop <= start:
-            raise SweepError(f"{name} = {text}: STOP must exceed START")
+        if stop < start or (n > 1 and stop == start):
+            raise SweepError(f"{name} = {text}: STOP must exceed START (or equal it for N = 1)")
 
     def validated(self, name: str) -> "Grid":
         self.check(self.start, self.stop, self.n, name)

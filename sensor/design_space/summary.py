@@ -3,18 +3,21 @@ of ``SUMMARY_RANGES_N`` (DESIGN section 13), as a JSON-ready dict and as text.""
 
 from __future__ import annotations
 
+import json
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
+from geometry.params import cut_note
 from sensor.design_space.equal_range import SAME_RANGE, SUMMARY_RANGES_N, admissible, answer_at
 
 
 def summary(ds, n_new, t_solve_s, t_total_s, written) -> dict:
     """The numbers the sweep prints: cells per hinge set and the equal-range answer at
     each range of ``SUMMARY_RANGES_N`` (NaN-free: a missing body is None)."""
-    out = {"cells": int(ds["computed"].size), "computed_now": n_new, "solve_s": t_solve_s,
+    kerf = json.loads(ds.attrs["design"]).get("kerf_mm") if "design" in ds.attrs else None
+    out = {"cells": int(ds["computed"].size), "computed_now": n_new, "kerf_mm": kerf, "solve_s": t_solve_s,
            "total_s": t_total_s, "hinge_sets": {}, "equal_range": [], "files": [str(p) for p in written]}
     for h in ds["hinges"].values:
         feas, ok = ds["feasible"].sel(hinges=h).values, admissible(ds, str(h))
@@ -59,7 +62,7 @@ def _plain(x):
 
 def summary_text(s: dict) -> str:
     lines = [f"swept {s['cells']} cells ({s['computed_now']} computed now) in {s['solve_s']:.1f} s; "
-             f"total {s['total_s']:.1f} s"]
+             f"total {s['total_s']:.1f} s; " + cut_note(s["kerf_mm"])]
     for h, e in s["hinge_sets"].items():
         lines.append(f"hinge set {h}: {e['feasible_cells']} of {e['cells']} cells feasible, "
                      f"{e['admissible_cells']} of them within the allowable hinge stress at full scale")

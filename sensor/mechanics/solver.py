@@ -35,6 +35,7 @@ zeros of the banded stiffness matrix). Units: mm, N, MPa, mJ (N mm).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,14 +74,52 @@ def cantilever_flexibility(L, t, b, E, G):
     return C
 
 
-def natural_stiffness(L, t, b, E, G):
+#: Gauss-Legendre points and weights on [0, 1] for the profile integrals (3 points a
+#: segment: exact for the cubic-in-s integrands of a uniform segment, and within 1e-6 on
+#: the fillet segments, whose thickness changes by a few percent from station to station).
+_GAUSS_X, _GAUSS_W = ((np.polynomial.legendre.leggauss(3)[0] + 1) / 2, np.polynomial.legendre.leggauss(3)[1] / 2)
+
+
+def profile_flexibility(stations, b, E, G):
+    """Tip flexibility (..., 3, 3) of a cantilever whose in-plane thickness varies along it:
+    the integrals of eqs 80-82 with the section's A(s) = t(s) b and I(s) = b t(s)^3 / 12
+    under the stations (..., k, 2) of s and t (mm; t linear between stations, the member's
+    length the last s):
+
+        C_NN = int ds / (E A),   C_VV = int (L - s)^2 ds / (E I) + 6/5 int ds / (G A),
+        C_VM = int (L - s) ds / (E I),   C_MM = int ds / (E I).
+
+    A flexibility-based element: exact, up to the quadrature, for any EI(s), EA(s); for a
+    uniform member it equals :func:`cantilever_flexibility`.
+    """
+    st = np.asarray(stations, dtype=float)
+    s, t = st[..., 0], st[..., 1]
+    h = np.diff(s, axis=-1)[..., None]                                 # (..., k-1, 1)
+    sq = s[..., :-1, None] + h * _GAUSS_X                              # (..., k-1, 3)
+    tq = t[..., :-1, None] + np.diff(t, axis=-1)[..., None] * _GAUSS_X
+    w = (h * _GAUSS_W).reshape(*h.shape[:-2], -1)                      # (..., 3 (k-1))
+    arm = (s[..., -1:] - sq.reshape(*sq.shape[:-2], -1))               # L - s
+    inv_t = 1.0 / tq.reshape(*tq.shape[:-2], -1)
+    inv_t3 = inv_t**3
+    b, E, G = (np.asarray(v, dtype=float) for v in (b, E, G))
+    bending = 12.0 / (E * b)
+    C = np.zeros(s.shape[:-1] + (3, 3))
+    C[..., 0, 0] = (w * inv_t).sum(-1) / (E * b)
+    C[..., 1, 1] = bending * (w * arm * arm * inv_t3).sum(-1) + SHEAR_FORM_FACTOR * (w * inv_t).sum(-1) / (G * b)
+    C[..., 1, 2] = C[..., 2, 1] = bending * (w * arm * inv_t3).sum(-1)
+    C[..., 2, 2] = bending * (w * inv_t3).sum(-1)
+    return C
+
+
+def natural_stiffness(L, t, b, E, G, flexibility=None):
     """Member stiffness (..., 3, 3) on the chord-frame deformations [u, theta_a, theta_b].
 
     u is the chord's stretch, theta_a and theta_b the end rotations relative to the chord.
     A cantilever clamped at a has tip deflection v = -L theta_a and tip rotation
     theta_b - theta_a, so K = T^T C^-1 T with T mapping [u, theta_a, theta_b] to [dx, v, theta].
+    ``flexibility`` replaces the uniform member's C (:func:`profile_flexibility`).
     """
-    C = cantilever_flexibility(L, t, b, E, G)
+    C = cantilever_flexibility(L, t, b, E, G) if flexibility is None else flexibility
     K = np.linalg.inv(C)
     L = np.asarray(L, dtype=float)
     T = np.zeros(L.shape + (3, 3))
@@ -241,7 +280,7 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
     b = np.stack([m.depth_mm[topo.flex] for m in models])
     E = np.array([m.E_MPa for m in models])[:, None]
     G = E / (2 * (1 + np.array([m.nu for m in models])[:, None]))
-    Kn = natural_stiffness(L0, t, b, E, G)
+    Kn = natural_stiffness(L0, t, b, E, G, _member_flexibility(topo, models, L0, t, b, E, G))
     f_in = np.stack([m.input_direction for m in models])
     d_out = np.stack([m.output_direction for m in models])
     size = np.ptp(X, axis=1).max(axis=1)              # (B,) largest extent, mm
@@ -249,6 +288,23 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
     rot = topo.dof_of_body[:, 2][topo.dof_of_body[:, 2] >= 0]
     weight[:, rot] = 1.0 / size[:, None]
     return _Batch(X, r0, d, L0, beta0, Kn, f_in, d_out, f_in, weight)
+
+
+def _member_flexibility(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
+    """Tip flexibility (B, e, 3, 3) of the compliant members: uniform ones in closed form,
+    those with a thickness profile (hinges with root fillets) by :func:`profile_flexibility`,
+    all of a batch in one call. The profiles of one member stack across the batch (same
+    number of stations); their stations are scaled to the member's undeformed length."""
+    C = cantilever_flexibility(L0, t, b, E, G)
+    first = models[0].profile_mm
+    cols = [j for j, k in enumerate(topo.flex) if first[k] is not None]
+    if not cols:
+        return C
+    members = topo.flex[cols]
+    st = np.array([[m.profile_mm[k] for k in members] for m in models])          # (B, h, k, 2)
+    st[..., 0] *= (L0[:, cols] / st[..., -1, 0])[..., None]
+    C[:, cols] = profile_flexibility(st, b[:, cols], E, G)
+    return C
 
 
 # --- results ---------------------------------------------------------------------------------
@@ -288,6 +344,20 @@ class SolveResult:
     def sensitivity_mm_per_N(self) -> float:
         """Output travel per input force, mm/N (the inverse of k_out)."""
         return 1.0 / self.k_out_N_per_mm
+
+
+def scaled_result(r: SolveResult, factor: float) -> SolveResult:
+    """A linear-limit result scaled by ``factor``: forces, travels, member forces and hinge
+    rotations times it, strain energies and work times its square; A and k_out are the
+    linear limit's. ``deformed_nodes`` and ``node_rotation_rad`` stay the small-travel
+    state's (the solved shape, not an extrapolated one)."""
+    return dataclasses.replace(
+        r, input_force_N=r.input_force_N * factor, input_travel_mm=r.input_travel_mm * factor,
+        output_travel_mm=r.output_travel_mm * factor, force_N=r.force_N * factor,
+        input_mm=r.input_mm * factor, output_mm=r.output_mm * factor,
+        strain_energy_mJ=r.strain_energy_mJ * factor**2, work_mJ=r.work_mJ * factor**2,
+        member_forces=r.member_forces * factor, member_strain_energy_mJ=r.member_strain_energy_mJ * factor**2,
+        hinge_rotation_deg={k: v * factor for k, v in r.hinge_rotation_deg.items()})
 
 
 @dataclass(frozen=True)

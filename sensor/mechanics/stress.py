@@ -1,19 +1,19 @@
 """Hinge stresses from a beam-model solve, and the stress feasibility rule (DESIGN section 14).
 
-Each hinge is a short beam of in-plane thickness t and depth b (the sheet). From the member
-end forces of a :class:`~sensor.mechanics.solver.SolveResult` (axial force N, end moments
-M_a, M_b: the forces conjugate to the chord-frame deformations, eqs 80-82) the bending
-moment varies linearly along the member, M(s) = -M_a + (M_a + M_b) s / L, and the nominal
-stress at a station is
+Each hinge is a neck of in-plane thickness t and depth b (the sheet) between two root
+fillets (:func:`geometry.topology.hinge_profile`). From the member end forces of a
+:class:`~sensor.mechanics.solver.SolveResult` (axial force N, end moments M_a, M_b: the
+forces conjugate to the chord-frame deformations, eqs 80-82) the bending moment varies
+linearly along the member, M(s) = -M_a + (M_a + M_b) s / L, and the nominal stress at a
+station of the neck is
 
     sigma(s) = |N| / (t b) + 6 |M(s)| / (b t^2)        (axial plus bending, MPa)
 
-The beam model clamps each hinge ``ROOT_DEPTH_PER_THICKNESS * t`` inside the bodies it joins
-(:mod:`geometry.topology`), so the drawn neck's roots are at that depth from the member's
-ends; the nominal stress is evaluated there. The peak at a root is the nominal stress times
-the root's stress concentration factor :data:`ROOT_KT`: the drawn profile's roots are sharp
-re-entrant corners (unbounded stress in linear elasticity), a cut part's roots carry the
-jet's radius r = kerf / 2, and the factor is measured on such roots with the continuum FE.
+The peak stress sits in a root fillet: the nominal stress where the neck meets the fillet
+times the fillet's stress concentration factor :func:`root_kt` (a function of r / t fitted
+to the continuum FE of cut parts, the form of Peterson's shoulder-fillet factors). The
+drawn profile's sharp roots (r = 0) have no finite peak in linear elasticity; they carry
+:data:`SHARP_ROOT_KT`, the factor the thesis' specimens' cut roots were once given.
 """
 
 from __future__ import annotations
@@ -23,16 +23,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from geometry.params import Design
-from geometry.topology import ROOT_DEPTH_PER_THICKNESS, BeamModel
+from geometry.topology import BeamModel
 
 
 @dataclass(frozen=True)
 class HingeStress:
     """Stresses (MPa) of one hinge at the solved state.
 
-    ``root_nominal_MPa``: axial plus bending at the more loaded neck root; ``neck_MPa``: the
-    same one thickness inside the neck from either root (the larger); ``kt``: the root's
-    stress concentration factor; ``peak_MPa`` = kt x root_nominal_MPa.
+    ``root_nominal_MPa``: axial plus bending where the neck meets its more loaded root
+    fillet; ``neck_MPa``: the same one thickness inside the neck from either end (the
+    larger); ``kt``: that root's stress concentration factor; ``peak_MPa`` = kt x
+    root_nominal_MPa (the larger of the two roots').
     """
 
     hinge: int
@@ -42,13 +43,23 @@ class HingeStress:
     peak_MPa: float
 
 
-#: Peak stress at a cut hinge root over the beam's nominal root stress (axial plus bending):
-#: the continuum FE of the profiles of samples A and B with the jet's root fillets (r = kerf
-#: / 2 = 0.4 mm; 8 quadratic elements across each hinge) gives 1.37-1.55 over all twelve
-#: hinges (sample B's 0.3 mm middle hinges 1.37, the 0.5 mm ones 1.41-1.55; with r = 0.2 mm
-#: the same within 0.02: the fillet lowers the concentration but shortens the neck); 1.45
-#: stands for all within 7 %. The drawn profile's sharp roots have no finite value.
-ROOT_KT = 1.45
+#: Kt = 1 + KT_SCALE (t / r)^KT_EXPONENT for a root fillet of radius r on a neck of
+#: thickness t in bending (Neuber's form; Peterson's shoulder fillets of a flat bar with a
+#: tall shoulder follow it for 0.25 < r / t < 4): fitted to the continuum FE's peak stress
+#: at the fillets of cut parts (kerf 0.4 and 0.8 mm, hinges 0.3-1.2 mm), checked within
+#: 10 % in tests/mechanics/test_stress.py.
+KT_SCALE = 0.225
+KT_EXPONENT = 0.82
+#: Stress concentration given to a sharp (drawn) root, r = 0.
+SHARP_ROOT_KT = 1.45
+
+
+def root_kt(t_mm, radius_mm):
+    """Stress concentration factor of root fillets of radius r (mm) on necks of thickness t
+    (mm), arrays broadcast: 1 + KT_SCALE (t / r)^KT_EXPONENT, :data:`SHARP_ROOT_KT` at r = 0."""
+    t, r = np.broadcast_arrays(np.asarray(t_mm, dtype=float), np.asarray(radius_mm, dtype=float))
+    with np.errstate(divide="ignore"):
+        return np.where(r > 0, 1.0 + KT_SCALE * (t / np.where(r > 0, r, 1.0)) ** KT_EXPONENT, SHARP_ROOT_KT)
 
 
 def _nominal_stress(N, Ma, Mb, t, b, L, s):
@@ -58,22 +69,24 @@ def _nominal_stress(N, Ma, Mb, t, b, L, s):
     return np.abs(N) / (t * b) + 6.0 * np.abs(-Ma + (Ma + Mb) * s / L) / (b * t * t)
 
 
-def hinge_stresses(model: BeamModel, result,
-                   root_depth_per_thickness: float = ROOT_DEPTH_PER_THICKNESS) -> dict[int, HingeStress]:
+def hinge_stresses(model: BeamModel, result) -> dict[int, HingeStress]:
     """Each hinge's stresses at the solved state of ``result`` (a SolveResult of ``model``)."""
     row = {int(m): i for i, m in enumerate(result.member_index)}
     hinges = model.hinge_members
     N, Ma, Mb = np.asarray(result.member_forces)[[row[int(m)] for m in hinges]].T
     t, b = model.thickness_mm[hinges], model.depth_mm[hinges]
     L = model.lengths_mm[hinges]
-    root = root_depth_per_thickness * t
-    nominal = np.maximum(_nominal_stress(N, Ma, Mb, t, b, L, root),
-                         _nominal_stress(N, Ma, Mb, t, b, L, L - root))
-    neck = np.maximum(_nominal_stress(N, Ma, Mb, t, b, L, np.minimum(root + t, L / 2)),
-                      _nominal_stress(N, Ma, Mb, t, b, L, np.maximum(L - root - t, L / 2)))
+    s0, s1 = model.neck_mm[hinges].T
+    roots = np.stack([_nominal_stress(N, Ma, Mb, t, b, L, s0), _nominal_stress(N, Ma, Mb, t, b, L, s1)])
+    kt = root_kt(t[None, :], model.root_radius_mm[hinges].T)
+    peaks = kt * roots
+    worst = np.argmax(peaks, axis=0)
+    cols = np.arange(len(hinges))
+    neck = np.maximum(_nominal_stress(N, Ma, Mb, t, b, L, np.minimum(s0 + t, (s0 + s1) / 2)),
+                      _nominal_stress(N, Ma, Mb, t, b, L, np.maximum(s1 - t, (s0 + s1) / 2)))
     numbers = model.hinge_number[hinges]
-    return {int(h): HingeStress(int(h), float(n), float(k), ROOT_KT, float(ROOT_KT * n))
-            for h, n, k in zip(numbers, nominal, neck)}
+    return {int(h): HingeStress(int(h), float(roots[w, i]), float(k), float(kt[w, i]), float(peaks[w, i]))
+            for i, (h, w, k) in enumerate(zip(numbers, worst, neck))}
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ import ezdxf
 import ezdxf.bbox
 import pytest
 
-from geometry.params import make_design, save_design
+from geometry.params import MATERIALS, make_design, save_design
 from geometry.topology import load_model
 
 
@@ -19,7 +19,7 @@ def test_export_preset_writes_what_it_prints(tmp_path, dacm):
     written = sorted(tmp_path.iterdir())
     assert [p.name for p in written] == ["sample-a.dxf", "sample-a.json"]
     assert out.splitlines() == [f"wrote {tmp_path / 'sample-a.dxf'}", f"wrote {tmp_path / 'sample-a.json'}"]
-    assert load_model(tmp_path / "sample-a.json").E_MPa == 2300.0
+    assert load_model(tmp_path / "sample-a.json").E_MPa == MATERIALS["delrin"].E_MPa
 
 
 def test_export_json_prints_the_files_and_solve_reads_the_beam_model(tmp_path, dacm):

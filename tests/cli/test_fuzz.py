@@ -156,7 +156,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(capsys, tmp_path, case)
 
 
 @pytest.mark.parametrize("command,bad,fragment", [
-    ("export", ["--kerf", "1e308"], "--kerf = 1e+308: must be a positive finite number up to 5"),
+    ("export", ["--kerf", "1e308"], "--kerf = 1e+308: must be a number in [0, 5] (mm)"),
     ("solve", ["--target-output", "1e308"], "--target-output = 1e+308"),
     ("draw", ["--dpi", "1e308"], "--dpi = 1e+308"),
     ("sweep", ["--seed", "-1"], "seed = -1: must be an integer"),

@@ -57,7 +57,7 @@ def test_at_equal_range_the_dacm_needs_A_times_less_strain_energy_in_the_linear_
 
     x = 0.005
     dacm = qualify(solve(build_beam_model(make_design(24, 20)), x))
-    problem = DesignProblem(dacm.range_N, travel_mm=x, body="basis", pairs=(tuple(range(1, 9)),))
+    problem = DesignProblem(dacm.range_N, target_output_mm=x, body="basis", pairs=(tuple(range(1, 9)),))
     basis = evaluate(problem, np.array([[24.0]]))[0]
     qb = qualify(solve(build_beam_model(basis.design), x))
     assert qb.range_N == pytest.approx(dacm.range_N, rel=2e-3)

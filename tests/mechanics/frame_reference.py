@@ -88,6 +88,19 @@ class FrameResult:
         return self.force_N / self.output_travel_mm
 
 
+def segment_thickness(profile, t: float, n_segments: int, samples: int = 64):
+    """Equivalent thicknesses of ``n_segments`` equal segments of a member: (axial, bending)
+    such that t_axial^-1 and t_bend^-3 are the segment means of t(s)^-1 and t(s)^-3 over
+    ``samples`` midpoints (the segment's axial and bending compliances per length); a
+    member without a profile is uniform."""
+    if profile is None:
+        return np.full(n_segments, t), np.full(n_segments, t)
+    length = profile[-1, 0]
+    x = (np.arange(n_segments * samples) + 0.5) * length / (n_segments * samples)
+    tx = np.interp(x, profile[:, 0], profile[:, 1]).reshape(n_segments, samples)
+    return 1.0 / (1.0 / tx).mean(axis=1), ((tx**-3.0).mean(axis=1)) ** (-1.0 / 3.0)
+
+
 def discretise(model: BeamModel, n_segments: int) -> Frame:
     """Split each compliant member of ``model`` into ``n_segments`` equal segments."""
     if not (isinstance(n_segments, int) and n_segments >= 1):
@@ -97,16 +110,18 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
     seg, stiff = [], []
     G = model.E_MPa / (2.0 * (1.0 + model.nu))
     rigid = np.array([k == "rigid" for k in model.member_kind])
-    for (a, b), t, w in zip(model.member_nodes[~rigid], model.thickness_mm[~rigid],
-                            model.depth_mm[~rigid]):
+    flex = np.flatnonzero(~rigid)
+    for k in flex:
+        (a, b), t, w = model.member_nodes[k], model.thickness_mm[k], model.depth_mm[k]
         s = np.linspace(0.0, 1.0, n_segments + 1)[1:-1, None]
         first = n0 + sum(len(x) for x in X[1:])
         X.append((1 - s) * model.nodes[a] + s * model.nodes[b])
         chain = np.concatenate([[a], np.arange(first, first + n_segments - 1), [b]])
         seg.append(np.column_stack([chain[:-1], chain[1:]]))
-        area = t * w
-        stiff.append(np.tile([model.E_MPa * area, SHEAR_CORRECTION * G * area,
-                              model.E_MPa * w * t**3 / 12.0], (n_segments, 1)))
+        t_axial, t_bend = segment_thickness(model.profile_mm[k], t, n_segments)
+        area = t_axial * w
+        stiff.append(np.column_stack([model.E_MPa * area, SHEAR_CORRECTION * G * area,
+                                      model.E_MPa * w * t_bend**3 / 12.0]))
     X = np.concatenate(X)
     seg = np.concatenate(seg)
     d = X[seg[:, 1]] - X[seg[:, 0]]
@@ -326,9 +341,26 @@ def split_members(model: BeamModel, n: int) -> BeamModel:
         count += n - 1
         rows += [(chain[i], chain[i + 1], k, i == 0) for i in range(n)]
     start, end, src, first = (np.array(c) for c in zip(*rows))
+    piece = np.zeros(len(src), dtype=int)
+    for i in range(1, len(src)):
+        piece[i] = piece[i - 1] + 1 if src[i] == src[i - 1] else 0
     return dataclasses.replace(
         model, nodes=np.concatenate(nodes), member_nodes=np.column_stack([start, end]),
         member_kind=tuple(model.member_kind[k] for k in src),
         thickness_mm=model.thickness_mm[src], depth_mm=model.depth_mm[src],
         hinge_number=np.where(first, model.hinge_number[src], 0),
-        member_name=tuple(model.member_name[k] for k in src))
+        member_name=tuple(model.member_name[k] for k in src),
+        profile_mm=tuple(_piece_profile(model.profile_mm[k], i, n if model.member_kind[k] != "rigid" else 1)
+                         for k, i in zip(src, piece)),
+        neck_mm=None, root_radius_mm=None)
+
+
+def _piece_profile(profile, i: int, n: int):
+    """The part of a member's thickness profile on its i-th of n equal pieces, from 0."""
+    if profile is None:
+        return None
+    length = profile[-1, 0]
+    lo, hi = i * length / n, (i + 1) * length / n
+    inside = profile[(profile[:, 0] > lo) & (profile[:, 0] < hi), 0]
+    s = np.concatenate([[lo], inside, [hi]])
+    return np.column_stack([s - lo, np.interp(s, profile[:, 0], profile[:, 1])])

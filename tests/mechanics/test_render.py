@@ -113,9 +113,10 @@ def test_member_strain_energies_add_up_to_the_solver_total(sample_b):
     link = np.array([k == "link" for k in model.member_kind]) & ~plate
     assert sed[link].max() < 0.1 * sed[hinge].min()
     # the top plate bends (its two halves are compliant members): in a stiff, highly
-    # amplifying body such as sample B it holds a fifth of the energy (measured 0.139 of
-    # 0.696 mJ), a quarter of what the hinges hold
-    assert 0 < U[plate].sum() < 0.3 * U[hinge].sum()
+    # amplifying body such as sample B as cut (its filleted hinges stiffer than drawn) it
+    # holds about a fifth of the energy (measured 0.206 of 0.880 mJ), a third of what the
+    # hinges hold
+    assert 0 < U[plate].sum() < 0.4 * U[hinge].sum()
 
 
 def test_mirror_symmetric_design_deforms_mirror_symmetrically(sample_b):

@@ -1,5 +1,6 @@
 """Hinge stresses from a beam solve and the stress rule (sensor.mechanics.stress)."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,7 +10,7 @@ from geometry.params import MATERIALS, Material, preset
 from geometry.topology import BeamModel, build_beam_model
 from sensor.mechanics.continuum import verify
 from sensor.mechanics.solver import solve
-from sensor.mechanics.stress import ROOT_KT, hinge_stresses, stress_check, stress_ok
+from sensor.mechanics.stress import SHARP_ROOT_KT, hinge_stresses, root_kt, stress_check, stress_ok
 
 
 def cantilever(L=3.0, t=0.5, b=5.1, E=2300.0, load_index=1e-4):
@@ -29,14 +30,27 @@ def test_cantilever_root_and_neck_stress_are_beam_theory():
     load index 1e-4 keeps the axial force from the slope at 1e-4 of it)."""
     L, t, b = 3.0, 0.5, 5.1
     model, F = cantilever(L, t, b)
-    s = hinge_stresses(model, solve(model, target_force_N=F), root_depth_per_thickness=0.0)[1]
+    s = hinge_stresses(model, solve(model, target_force_N=F))[1]
     assert s.root_nominal_MPa == pytest.approx(6 * F * L / (b * t * t), rel=1e-3)
     assert s.neck_MPa == pytest.approx(6 * F * (L - t) / (b * t * t), rel=1e-3)
-    assert s.peak_MPa == pytest.approx(ROOT_KT * s.root_nominal_MPa, rel=1e-12)
-    # a root depth k t moves the neck's root stations inside the member
-    k = 0.3
-    s2 = hinge_stresses(model, solve(model, target_force_N=F), root_depth_per_thickness=k)[1]
-    assert s2.root_nominal_MPa == pytest.approx(6 * F * (L - k * t) / (b * t * t), rel=1e-3)
+    assert s.peak_MPa == pytest.approx(SHARP_ROOT_KT * s.root_nominal_MPa, rel=1e-12)
+    # a neck that starts 0.4 mm from the clamp behind a fillet of radius 0.2 mm: the
+    # nominal stress is taken where the neck starts, times that fillet's Kt
+    filleted = dataclasses.replace(model, neck_mm=np.array([[0.4, L]]), root_radius_mm=np.array([[0.2, 0.0]]))
+    s2 = hinge_stresses(filleted, solve(model, target_force_N=F))[1]
+    assert s2.root_nominal_MPa == pytest.approx(6 * F * (L - 0.4) / (b * t * t), rel=1e-3)
+    assert s2.kt == pytest.approx(float(root_kt(t, 0.2)))
+
+
+def test_root_kt_limits():
+    """Kt falls towards 1 as the fillet grows against the neck (a straight bar has none),
+    rises as it sharpens, and a drawn sharp root carries SHARP_ROOT_KT."""
+    r = np.array([0.05, 0.1, 0.2, 0.4, 0.8, 1e6])
+    kt = root_kt(0.5, r)
+    assert np.all(np.diff(kt) < 0) and kt[-1] == pytest.approx(1.0, abs=1e-3)
+    assert root_kt(0.5, 0.0) == SHARP_ROOT_KT
+    # a function of r / t only (the geometry's one scale-free ratio)
+    assert root_kt(1.0, 0.4) == pytest.approx(root_kt(0.5, 0.2), rel=1e-12)
 
 
 def test_materials_carry_a_sourced_allowable_stress():
@@ -62,16 +76,20 @@ def test_stress_rule_on_sample_b():
     assert f"hinge {check.worst_hinge}" in c.message and "allowable" in c.message
 
 
-def test_root_peak_within_15_percent_of_the_continuum_at_cut_roots():
-    """Beam peak (ROOT_KT x nominal root stress) against the continuum FE's peak von Mises
-    stress at roots rounded by the 0.8 mm jet (r = 0.4 mm), sample A, linear, 4 elements
-    across each hinge, every hinge carrying at least a fifth of the largest stress."""
-    d = preset("sample-a")
-    fe = verify(d, mesh=4.0, kerf_mm=0.8)
+@pytest.mark.parametrize("name, kerf", [("sample-a", 0.8), ("sample-b", 0.4)])
+def test_root_peak_within_10_percent_of_the_continuum_at_cut_roots(name, kerf):
+    """Beam peak (fillet Kt x nominal stress where the neck meets the fillet) against the
+    continuum FE's peak von Mises stress at the roots rounded by the jet (r = kerf / 2),
+    linear, 6 quadratic elements across each hinge (the peak in a fillet of radius >= 0.2
+    mm is within 2 % of the 12-element value there), on every hinge that carries at least
+    half the largest stress (the ones the stress rule is about; a lightly loaded hinge
+    whose moment barely changes along it has no root peak to speak of)."""
+    d = preset(name).replace(kerf_mm=kerf)
+    fe = verify(d, mesh=6.0, kerf_mm=kerf)
     m = build_beam_model(d)
     r = solve(m, target_output_mm=1e-3)
     beam = {h: s.peak_MPa * fe.output_travel_mm / r.output_travel_mm for h, s in hinge_stresses(m, r).items()}
     top = max(fe.hinge_stress_MPa.values())
     for h, v in fe.hinge_stress_MPa.items():
-        if v > 0.2 * top:
-            assert beam[h] == pytest.approx(v, rel=0.15), f"hinge {h}"
+        if v >= 0.5 * top:
+            assert beam[h] == pytest.approx(v, rel=0.10), f"hinge {h}"
