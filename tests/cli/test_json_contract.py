@@ -33,7 +33,7 @@ CASES = {
     "render": (["--preset", "sample-b", "--window-size", "320x240", "--out", "{out}"], True),
     "verify": (["--preset", "sample-b", "--mesh", "coarse", "--out", "{out}"], True),
     "sweep": (["--hinges", "03-03", "--phi1", "20:30:5", "--phi2", "10:20:5", "--no-plots", "--out", "{out}"], True),
-    "design": (["--range", "5", "--workers", "1", "--out", "{out}"], True),
+    "design": (["--range", "3", "--workers", "1", "--out", "{out}"], True),
     "sensor": (["--preset", "sample-a-as-cut", "--out", "{out}"], True),
     "measure": (["{loop}", "--preset", "sample-b-as-cut", "--calibrate", "--out", "{out}"], True),
     "report": (["--preset", "sample-b", "--no-verify", "--out", "{out}"], True),
