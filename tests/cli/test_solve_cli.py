@@ -61,7 +61,7 @@ def test_check_exit_status_says_feasible_or_not(capsys):
     assert main(["check", "--hinges", "04-04"]) == 2
 
 
-@pytest.mark.parametrize("argv", [["solve", "--phi1", "abc"], ["nope"], [], ["sweep", "--workers", "x"]])
+@pytest.mark.parametrize("argv", [["solve", "--phi1", "abc"], ["nope"], ["sweep", "--workers", "x"]])  # bare dacm: the help
 def test_argument_errors_are_one_line_with_status_2(argv, capsys):
     with pytest.raises(SystemExit) as exc:
         main(argv)
