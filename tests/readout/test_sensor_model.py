@@ -295,7 +295,7 @@ def test_cli_json_and_plots(tmp_path, capsys):
     assert main(["sensor", "--preset", "sample-a", "--json", "--out", str(tmp_path / "o")]) == 0
     out = json.loads(capsys.readouterr().out)
     for key in ("range_N", "sensitivity_mV_per_N", "resolution_N", "nonlinearity_pct",
-                "hysteresis_pct"):
+                "output_hysteresis_fraction", "hysteresis_fraction"):
         assert math.isfinite(out[key]) and out[key] > 0
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [
         "sample-a-calibration.png", "sample-a-intensity.png"]

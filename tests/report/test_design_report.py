@@ -78,7 +78,8 @@ def test_rules_stresses_one_hysteresis_versions_and_commit(report):
     assert s["allowable_stress_MPa"] == 36.0
     for v in stresses.values():
         assert f'<td class="num">{v.peak_MPa:.1f}</td>' in page
-    assert "115</td>" in page  # hinge 10 of sample B: 41.3 MPa is 115 % of 36 MPa
+    worst = max(v.peak_MPa for v in stresses.values())
+    assert f"{100 * worst / 36:.0f}</td>" in page  # the most stressed hinge, % of 36 MPa
     h = 100 * s["solve"]["hysteresis"]
     assert f"{h:.2f}" in page and f"{s['datasheet']['hysteresis_pct']:.2f}" not in page
     assert page.count("hysteresis H (predicted)") == 3   # key figure, solve table, datasheet
