@@ -12,7 +12,7 @@ from mri.figure import PairPanel, pair_figure
 from mri.io import load_image
 from mri.pair import check_pair
 from mri.roi import parse_roi, resolve_roi
-from mri.snr import measure_pair
+from mri.snr import measure_arrays
 
 PAIR = Path(__file__).resolve().parents[1] / "tests" / "data" / "mri" / "siemens_aera_pair"
 
@@ -24,7 +24,7 @@ print(f"{a.scanner}, {a.shape[1]} x {a.shape[2]} px of {a.pixel_spacing_mm[0]:.3
 
 # The thesis' method over the whole image, NEMA over five boxes and over the eroded phantom.
 specs = {"thesis": (parse_roi("whole"), parse_roi("phantom")), "nema": (parse_roi("nema5"), parse_roi("phantom"))}
-result = measure_pair(a.pixels, b.pixels, a.pixel_spacing_mm, specs)
+result = measure_arrays(a.pixels, b.pixels, a.pixel_spacing_mm, specs)
 for method in result.slices[0].methods:
     for roi in method.rois:
         print(f"{method.method:6} {roi.roi:36} signal {roi.signal:8.1f}  noise {roi.noise:6.2f}  SNR {roi.snr:7.1f}")
@@ -32,6 +32,7 @@ print(f"difference sum|a-b| / sum a = {result.difference_percent:.3f} %")
 
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("mri_snr.png")
 rois = resolve_roi(parse_roi("nema5"), a.pixels[0].astype(float), a.pixel_spacing_mm)
-figure = pair_figure([PairPanel("Siemens Aera pair", a.pixels[0], b.pixels[0], rois, result.difference_percent)])
+figure = pair_figure([PairPanel("Siemens Aera pair", a.pixels[0], b.pixels[0], rois, "image 1", "image 2",
+                                a.pixel_spacing_mm)])
 save_figure(figure, out)
 print(f"figure: {out}")

@@ -32,7 +32,7 @@ from sensor.pneumatic.lines import (
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import ideal_sensors
 from sensor.pneumatic.simulate import simulate
-from sensor.pneumatic.studies import console_progress
+from sensor.cli.progress import counting
 
 BORE = 0.004
 # Table 2 of the thesis: length (m), final velocity (m/s), Mach, temperature (K), drop (%)
@@ -111,11 +111,10 @@ def fixed_volume(out_dir: Path, quiet: bool = False) -> None:
     inputs = excitations()
     setups = {"no line": NO_LINE, **LONG}
     runs = {name: {} for name in inputs}
-    with console_progress("chapter III", quiet) as progress:
+    with counting("chapter III", quiet) as progress:
         for i, (name, setup) in enumerate((n, s) for n in inputs for s in setups):
             runs[name][setup] = _run(setups[setup], inputs[name])
-            if progress is not None:
-                progress(i + 1, len(inputs) * len(setups), f"{name} {setup}")
+            progress(i + 1, len(inputs) * len(setups), f"{name} {setup}")
     print(f"\nFixed-volume pressurisation (Figures 4-7, 10): Festo-like valve, {SUPPLY_PA / 1e5:g} bar abs "
           f"supply, {CHAMBER.volume_1_m3 * 1e6:g} cm^3 chamber, {BORE * 1e3:g} mm line, {DURATION_S:g} s runs")
 

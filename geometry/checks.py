@@ -131,8 +131,8 @@ def _near_distances(poly: np.ndarray, I: np.ndarray, J: np.ndarray) -> list[tupl
 
 
 _ROOTS = {1: "base plate", 2: "left knee", 3: "left knee", 4: "top plate left", 5: "top plate right",
-          6: "right knee", 7: "right knee", 8: "base plate", 9: "left knee", 10: "platform",
-          11: "platform", 12: "right knee"}
+          6: "right knee", 7: "right knee", 8: "base plate", 9: "left knee", 10: "platform left",
+          11: "platform right", 12: "right knee"}
 
 
 @functools.lru_cache(maxsize=8)
@@ -149,6 +149,7 @@ def _free_pairs(names: tuple[str, ...], kinds: tuple[str, ...], hinges: tuple[in
 
     join("fiber post", "base plate")
     join("top plate left", "top plate right")
+    join("platform left", "platform right")
     for i, kind in enumerate(kinds):
         if kind == "link":
             h1, h2 = i - 1, i + 1
@@ -213,7 +214,7 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
         msg = f"phi2_deg = {d.phi2_deg:g}: must be <= {lim2:.2f} deg (platform meets the top plate)"
     add("angle_limits", ok, msg, margin, "deg")
 
-    used = d.hinge_thickness_mm[:8] if d.is_basis else d.hinge_thickness_mm
+    used = d.used_thickness_mm
     thinnest = min(used)
     which = 1 + list(d.hinge_thickness_mm).index(thinnest)
     webs = {"link_width_mm": d.link_width_mm, "plate_thickness_mm": d.plate_thickness_mm,

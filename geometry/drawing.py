@@ -156,3 +156,38 @@ def profile_figure(design: Design) -> Figure:
     fig = Figure(figsize=(5.0, 5.6), layout="tight")
     plot_profile(design, fig.subplots())
     return fig
+
+
+def dimensioned_figure(design: Design, kerf_mm: float | None = None) -> Figure:
+    """The shop drawing of a design (mm, deg): the profile with its hinge numbers, angles,
+    footprint and the input and output points, and beside it the table of every used hinge's
+    drawn thickness and flexible length, the link and plate widths and the two angles;
+    ``kerf_mm``: the jet the DXF is compensated for (stated in the title block)."""
+    lay = make_layout(design)
+    hinges = sorted((p for p in make_parts(lay) if p.kind == "hinge"), key=lambda p: p.hinge)
+    fig = Figure(figsize=(9.0, 5.8), layout="tight")
+    ax, tab = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.15, 1.0]})
+    plot_profile(design, ax)
+    for pt, dx, dy in ((lay.input_point, -1.6, 0.9), (lay.output_point, -1.8, -3.5)):
+        ax.plot(*pt, marker="o", ms=3.5, color=_PORT, zorder=4)
+        ax.text(pt[0] + dx, pt[1] + dy, f"({pt[0]:.2f}, {pt[1]:.2f})", ha="right", fontsize=7, color=_PORT)
+    tab.set_axis_off()
+    rows = [["hinge", "t (mm)", "L (mm)"]]
+    rows += [[str(p.hinge), f"{p.width:.4f}", f"{np.linalg.norm(p.axis[1] - p.axis[0]):.3f}"] for p in hinges]
+    t = tab.table(cellText=rows, loc="upper left", cellLoc="center", colWidths=[0.16, 0.22, 0.22],
+                  bbox=[0.0, 1.0 - 0.052 * len(rows), 0.6, 0.052 * len(rows)])
+    t.set_fontsize(8)
+    angles = f"phi1 = {design.phi1_deg:.2f} deg" + ("" if design.is_basis else f", phi2 = {design.phi2_deg:.2f} deg")
+    notes = [angles,
+             f"footprint {design.width_mm:g} x {design.height_mm:g} mm, sheet {design.sheet_thickness_mm:g} mm",
+             f"link width {design.link_width_mm:g} mm, plates {design.plate_thickness_mm:g} mm, "
+             f"platform {design.platform_width_mm:g} x {design.platform_thickness_mm:g} mm",
+             f"knees {design.knee_width_mm:g} x {design.knee_height_mm:g} mm, "
+             f"fiber post {design.fiber_post_width_mm:g} mm",
+             f"input ({lay.input_point[0]:.2f}, {lay.input_point[1]:.2f}) mm, "
+             f"output ({lay.output_point[0]:.2f}, {lay.output_point[1]:.2f}) mm",
+             f"material {design.material.name}; "
+             + ("drawing (no kerf compensation)" if not kerf_mm else f"DXF: jet centre path, kerf {kerf_mm:g} mm")]
+    tab.text(0.0, 1.0 - 0.052 * len(rows) - 0.04, "\n".join(notes), va="top", fontsize=7.5,
+             transform=tab.transAxes, family="monospace")
+    return fig

@@ -149,9 +149,14 @@ def make_parts(lay: Layout) -> list[Part]:
                                          d.fiber_post_width_mm / 2, lay.post_top)),
     ]
     if not d.is_basis:
-        parts.append(Part("platform", "platform",
-                          _rect(-d.platform_width_mm / 2, lay.output_point[1],
-                                d.platform_width_mm / 2, lay.output_point[1] + d.platform_thickness_mm)))
+        # the platform bends between the middle hinges (like the top plate): two halves,
+        # each along its centre line from the middle to a middle hinge
+        y0, half = lay.output_point[1], d.platform_width_mm / 2
+        ym = y0 + d.platform_thickness_mm / 2
+        parts += [Part("platform left", "platform", _rect(-half, y0, 0.0, y0 + d.platform_thickness_mm), 0,
+                       np.array([[0.0, ym], [-half, ym]]), d.platform_thickness_mm),
+                  Part("platform right", "platform", _rect(0.0, y0, half, y0 + d.platform_thickness_mm), 0,
+                       np.array([[0.0, ym], [half, ym]]), d.platform_thickness_mm)]
     lh = d.hinge_length_mm
     for name, (a, b), h1, h2 in side_members(lay):
         nodes = member_chain(a, b, lh)

@@ -24,6 +24,8 @@ from geometry.errors import GeometryError, ParameterError
 from geometry.validation import STEM_RULE, Number, check_fields, is_real, is_stem
 
 N_HINGES = 12
+#: Hinges of the basis body (1-8; the proposed body adds the middle branch's 9-12).
+BASIS_HINGES = 8
 
 #: Named hinge sets of thesis section 6.2.3: in-plane thickness (mm) of hinges 1-8 and 9-12.
 HINGE_SETS: dict[str, tuple[float, float]] = {"05-03": (0.5, 0.3), "03-03": (0.3, 0.3)}
@@ -40,12 +42,15 @@ TABLE7_HINGES: dict[str, tuple[float, ...]] = {
 class Material:
     """A linear elastic sheet material: Young's modulus ``E_MPa``, Poisson's ratio ``nu`` and
     the allowable stress ``allowable_stress_MPa`` (the largest peak hinge stress at full
-    scale that the stress rule accepts, see :mod:`sensor.mechanics.stress`)."""
+    scale that the stress rule accepts, see :mod:`sensor.mechanics.stress`), and the volume
+    magnetic susceptibility ``chi_ppm`` (SI, ppm; None when unknown), which sets the body's
+    MRI artefact (:mod:`sensor.artefact`)."""
 
     name: str
     E_MPa: float
     nu: float
     allowable_stress_MPa: float = math.inf
+    chi_ppm: float | None = None
 
 
 #: Delrin's effective E is the beam model's one parameter calibrated on hardware: the basis
@@ -54,15 +59,22 @@ class Material:
 #: ``sensor.mechanics.table6.calibrate_modulus`` recomputes it (checked in
 #: tests/mechanics/test_table6.py). ABS as printed (FDM), E about 1.8 GPa, the thesis'
 #: softer second material (section 6.1.3), is not calibrated.
-DELRIN_E_MPA = 1794.5
+DELRIN_E_MPA = 1773.2
 #: Allowable stresses are half the tensile yield stress, a margin for the creep and fatigue
 #: of a sensor loaded for hours: acetal homopolymer (Delrin) reaches 72 MPa in tension
 #: (J. M. Margolis (ed.), Engineering Plastics Handbook, McGraw-Hill 2006, Table 5.5), so
 #: 36 MPa; moulded impact-grade ABS yields at 42.7 MPa (ASTM D638, guaranteed minimum of the
 #: APAC Infrastructure ABS specification; FDM prints are weaker across layers), so 20 MPa.
+#: Volume susceptibilities (SI, ppm, room temperature): POM (Delrin) -9.36, measured by
+#: Wapler et al., Magnetic properties of materials for MR engineering, micro-MR and beyond,
+#: J. Magn. Reson. 242 (2014) 233-242 (as quoted from that paper; its table not re-read
+#: here). ABS -9.0 is not a sourced measurement: no published value was found, and it is
+#: taken at the value typical of amorphous polymers (PMMA -9.06, POM -9.36, Wapler 2014),
+#: so the artefact model cannot tell delrin from ABS. Both are within 0.5 ppm of water
+#: (-9.05, Schenck 1996, Med. Phys. 23:815), the reason polymers are nearly artefact-free.
 MATERIALS: dict[str, Material] = {
-    "delrin": Material("delrin", DELRIN_E_MPA, 0.35, 36.0),
-    "abs": Material("abs", 1800.0, 0.35, 20.0),
+    "delrin": Material("delrin", DELRIN_E_MPA, 0.35, 36.0, chi_ppm=-9.36),
+    "abs": Material("abs", 1800.0, 0.35, 20.0, chi_ppm=-9.0),
 }
 
 
@@ -120,6 +132,17 @@ class Design:
     @property
     def is_basis(self) -> bool:
         return self.phi2_deg is None
+
+    @property
+    def used_hinges(self) -> tuple[int, ...]:
+        """The hinges the body has (Figure 48 numbers): 1-8 for the basis body, 1-12 for the
+        proposed one (hinges 9-12 are the middle branch)."""
+        return tuple(range(1, (BASIS_HINGES if self.is_basis else N_HINGES) + 1))
+
+    @property
+    def used_thickness_mm(self) -> tuple[float, ...]:
+        """The in-plane thicknesses (mm) of :attr:`used_hinges`."""
+        return self.hinge_thickness_mm[:len(self.used_hinges)]
 
     def replace(self, **changes) -> Design:
         """A copy with some fields changed (and validated)."""
@@ -219,7 +242,7 @@ def design_to_dict(d: Design) -> dict:
     for f in dataclasses.fields(d):
         value = getattr(d, f.name)
         if f.name == "material":
-            out["material"] = dataclasses.asdict(value)
+            out["material"] = {k: v for k, v in dataclasses.asdict(value).items() if v is not None}
         elif f.name == "hinge_thickness_mm":
             out[f.name] = list(value)
         elif value is not None:
@@ -239,17 +262,19 @@ def _material_from(mat) -> Material:
     missing = [k for k in ("name", "E_MPa", "nu") if k not in mat]
     if missing:
         raise ParameterError(f"material table lacks {missing[0]!r} (needs name, E_MPa, nu)")
-    unknown = sorted(set(mat) - {"name", "E_MPa", "nu", "allowable_stress_MPa"})
+    unknown = sorted(set(mat) - {"name", "E_MPa", "nu", "allowable_stress_MPa", "chi_ppm"})
     if unknown:
         raise ParameterError(f"material table: unknown key(s) {', '.join(unknown)} "
-                             "(known: name, E_MPa, nu, allowable_stress_MPa)")
-    for k in ("E_MPa", "nu", "allowable_stress_MPa"):
+                             "(known: name, E_MPa, nu, allowable_stress_MPa, chi_ppm)")
+    for k in ("E_MPa", "nu", "allowable_stress_MPa", "chi_ppm"):
         if k in mat and not (is_real(mat[k]) or (k == "allowable_stress_MPa" and mat[k] == math.inf)):
             raise ParameterError(f"material {k} = {mat[k]!r}: must be a number")
     if not is_stem(mat["name"]):
         raise ParameterError(f"material name = {mat['name']!r}: must be {STEM_RULE}")
+    chi = mat.get("chi_ppm")
     return Material(mat["name"], float(mat["E_MPa"]), float(mat["nu"]),
-                    float(mat.get("allowable_stress_MPa", math.inf)))
+                    float(mat.get("allowable_stress_MPa", math.inf)),
+                    None if chi is None else float(chi))
 
 
 def design_from_dict(data: dict, source: str = "design") -> Design:

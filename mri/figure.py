@@ -26,7 +26,8 @@ ROI_COLOURS = ("tab:red", "tab:orange", "tab:green", "tab:cyan", "tab:purple", "
 @dataclass(frozen=True, eq=False)
 class PairPanel:
     """One row of the figure: a title, the 2-D slices a and b (None for one image), the ROIs
-    drawn on them and the images' names."""
+    drawn on them, the images' names and the pixel spacing (row, col; mm) of the scale bar
+    (none when unknown)."""
 
     title: str
     a: np.ndarray
@@ -34,6 +35,7 @@ class PairPanel:
     rois: tuple[Roi, ...]
     a_name: str = "a"
     b_name: str | None = "b"
+    pixel_spacing_mm: tuple[float, float] | None = None
 
 
 def _draw_rois(ax, rois: tuple[Roi, ...]) -> None:
@@ -77,6 +79,19 @@ def _images(panel: PairPanel):
     return columns
 
 
+def _scale_bar(ax, spacing_mm: tuple[float, float], cols: int) -> None:
+    """A white bar of a round length (1, 2, 5 x 10^k mm, about a fifth of the width) in the
+    lower left corner, labelled in mm."""
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    target = cols * spacing_mm[1] / 5
+    step = 10 ** np.floor(np.log10(target))
+    length = max(m * step for m in (1, 2, 5) if m * step <= target)
+    ax.add_artist(AnchoredSizeBar(ax.transData, length / spacing_mm[1], f"{length:g} mm",
+                                  "lower left", pad=0.4, color="white", frameon=False,
+                                  size_vertical=max(1.0, 0.006 * cols), fontproperties={"size": 8}))
+
+
 def pair_figure(panels: list[PairPanel]):
     """A matplotlib figure with one row (a, b, a - b; or a and its noise image) per panel."""
     from matplotlib.figure import Figure
@@ -102,9 +117,12 @@ def pair_figure(panels: list[PairPanel]):
             ax.set_ylim(image.shape[0] - 0.5 + 1, -0.5 - 1)
             if bar:
                 fig.colorbar(shown, ax=ax, shrink=0.8, label=bar)
+            if panel.pixel_spacing_mm and style["cmap"] == "gray":  # white bar on the dark images
+                _scale_bar(ax, panel.pixel_spacing_mm, image.shape[1])
         for ax in row[len(columns):]:
             ax.set_axis_off()
-        row[0].set_ylabel(panel.title, fontsize=11)
+        if len(panels) > 1:  # rows named only when there are several (reference vs conditions)
+            row[0].set_ylabel(panel.title, fontsize=11)
         for k, roi in enumerate(panel.rois):
             colour = ROI_COLOURS[k % len(ROI_COLOURS)]
             legend.setdefault((roi.label, colour), Line2D([], [], color=colour, label=roi.label))

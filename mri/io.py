@@ -27,9 +27,15 @@ DICOM_ACQUISITION_FIELDS = {
     "averages": ("NumberOfAverages",),
     "field_strength_t": ("MagneticFieldStrength",),
     "sequence": ("ScanningSequence", "PulseSequenceName"),
-    "phase_steps": ("NumberOfPhaseEncodingSteps",),
+    "phase_steps": ("NumberOfPhaseEncodingSteps", "MRAcquisitionPhaseEncodingStepsInPlane"),
+    "frequency_steps": ("MRAcquisitionFrequencyEncodingSteps",),
     "acquisition_matrix": ("AcquisitionMatrix",),
 }
+
+#: When each image was acquired: the enhanced per-frame time first (an anonymiser may blank
+#: the top-level one, as in hazen's Sola files), then the classic date and time.
+DICOM_TIME_KEYWORDS = ("FrameAcquisitionDateTime", "AcquisitionDateTime", "AcquisitionDate",
+                       "AcquisitionTime", "ContentDate", "ContentTime")
 
 #: Descriptive DICOM fields that may differ between the images of a pair with only a warning.
 DICOM_DESCRIPTIVE_FIELDS = {"receive_coil": ("ReceiveCoilName",)}
@@ -74,6 +80,7 @@ DICOM_READ_KEYWORDS = frozenset(
      "RescaleSlope", "RescaleIntercept", "Rows", "Columns", "NumberOfFrames", "SamplesPerPixel",
      "PhotometricInterpretation", "BitsAllocated", "BitsStored", "PixelRepresentation",
      "PixelData", "PerFrameFunctionalGroupsSequence", "SharedFunctionalGroupsSequence")
+    + DICOM_TIME_KEYWORDS
     + tuple(k for fields in (DICOM_ACQUISITION_FIELDS, DICOM_DESCRIPTIVE_FIELDS)
             for keywords in fields.values() for k in keywords)
 )
@@ -323,7 +330,7 @@ def _dicom_image(header: _Header, pixels: np.ndarray, source: str) -> MriImage:
         if v not in (None, "")
     )
     series_number = _numbers(header, "SeriesNumber", 1, path)
-    acquisition = {
+    acquisition = {"acquired": _acquired(header)} | {
         name: _plain(_first(header, keywords)) for name, keywords in DICOM_ACQUISITION_FIELDS.items()
     }
     acquisition.update(
@@ -342,6 +349,32 @@ def _dicom_image(header: _Header, pixels: np.ndarray, source: str) -> MriImage:
         scanner=scanner or None,
         acquisition={k: v for k, v in acquisition.items() if v is not None},
     )
+
+
+def _acquired(header: _Header) -> str | None:
+    """The acquisition date and time as ISO 8601 text ("2025-11-21T14:24:45.805"), from the
+    first of DICOM_TIME_KEYWORDS that holds a real date (anonymisers write 0001-01-01); None
+    when no header holds one."""
+    def text(keyword):
+        value = _lookup(header, keyword)
+        return str(value).strip() if value not in (None, "") else ""
+
+    def iso(date, time=""):
+        if len(date) < 8 or not date[:8].isdigit() or date[:4] == "0001":
+            return None
+        out = f"{date[:4]}-{date[4:6]}-{date[6:8]}"
+        if len(time) >= 4 and time[:4].isdigit():  # hhmm[ss[.ffffff]], kept to milliseconds
+            out += f"T{time[:2]}:{time[2:4]}" + (f":{time[4:10]}" if len(time) > 4 else "")
+        return out
+
+    for keyword in ("FrameAcquisitionDateTime", "AcquisitionDateTime"):
+        value = text(keyword).split("+")[0]
+        if iso(value):
+            return iso(value[:8], value[8:])
+    for date, time in (("AcquisitionDate", "AcquisitionTime"), ("ContentDate", "ContentTime")):
+        if iso(text(date)):
+            return iso(text(date), text(time))
+    return None
 
 
 def load_dicom_file(path) -> MriImage:

@@ -9,7 +9,9 @@ SNR grows with the voxel volume V and with the square root of the time spent sam
 bandwidth (BW_px Hz/pixel x N_read readout samples), since white noise power is proportional
 to the bandwidth. The inputs come from the DICOM header (PixelSpacing, SliceThickness,
 PixelBandwidth, AcquisitionMatrix, NumberOfPhaseEncodingSteps, NumberOfAverages,
-RepetitionTime) and can be overridden (a measured slice width, a NIfTI without a header).
+RepetitionTime; in enhanced DICOM the same from the per-frame and shared functional groups:
+pixel measures, MR timing, MR averages, MR imaging modifier, and the acquisition matrix of
+the MR FOV/Geometry sequence) and can be overridden (a measured slice width, a NIfTI without a header).
 """
 
 from __future__ import annotations
@@ -52,8 +54,10 @@ FIELDS = tuple(f.name for f in fields(NormalisationInputs))
 
 
 def _matrix(image: MriImage) -> tuple[float | None, float | None]:
-    """(readout samples, phase steps) from AcquisitionMatrix "freq rows\\freq cols\\phase rows
-    \\phase cols" (one of each pair is 0) and NumberOfPhaseEncodingSteps."""
+    """(readout samples, phase steps): an enhanced file's MR FOV/Geometry sequence
+    (MRAcquisitionFrequencyEncodingSteps, MRAcquisitionPhaseEncodingStepsInPlane), else
+    AcquisitionMatrix "freq rows\\freq cols\\phase rows\\phase cols" (one of each pair is 0)
+    and NumberOfPhaseEncodingSteps."""
     readout = phase = None
     text = image.acquisition.get("acquisition_matrix")
     if isinstance(text, str):
@@ -64,7 +68,8 @@ def _matrix(image: MriImage) -> tuple[float | None, float | None]:
         if len(values) == 4:
             readout = max(values[0], values[1]) or None
             phase = max(values[2], values[3]) or None
-    steps = image.acquisition.get("phase_steps")
+    steps, frequency = image.acquisition.get("phase_steps"), image.acquisition.get("frequency_steps")
+    readout = frequency if isinstance(frequency, float) and frequency > 0 else readout
     return readout, steps if isinstance(steps, float) and steps > 0 else phase
 
 

@@ -7,15 +7,18 @@ ROI texts (sizes are pixels, or millimetres with an ``mm`` suffix; boxes are zer
 ``central-box:SIZE[:WIDTH]``       box centred on the image, SIZE x SIZE (or SIZE x WIDTH)
 ``central-circle:DIAMETER``        disc centred on the image
 ``mask:PATH``                      non-zero pixels of an image file of the same size
-``phantom[:EROSION]``              automatic phantom mask (:func:`mri.phantom.phantom_mask`:
+``phantom[:EROSION]``              automatic phantom mask (:func:`mri.phantom.find_phantom`:
                                    shading-robust threshold, largest region, holes filled),
                                    eroded by EROSION, default 5 px
 ``nema5[:SIZE[:OFFSET]]``          five SIZE boxes (default 20 px) on the phantom centre (fitted
                                    circle or rectangle of the outline, :mod:`mri.phantom`) and
                                    at (+-OFFSET, +-OFFSET) from it (default 40 px), as MRI QA
                                    tools (hazen, McCann et al. 2013) place them for NEMA MS 1;
-                                   every box must lie inside the phantom (holes filled), else
-                                   :class:`BoxOutsidePhantomError` carries the boxes to draw
+                                   every box must lie inside the phantom (holes filled): the
+                                   default layout shrinks to the largest that does (the largest
+                                   size, down to NEMA5_MIN_SIZE_PX, at its largest offset), a given one
+                                   or a phantom too small raises
+                                   :class:`BoxOutsidePhantomError` with the boxes to draw
 ``corners[:SIZE]``                 four SIZE boxes (default 1/8 of the image) in the image
                                    corners, CORNER_INSET_PX from the edges: the air ROIs of the
                                    background method; each must stay BACKGROUND_MARGIN_PX clear
@@ -31,7 +34,7 @@ import numpy as np
 from scipy import ndimage
 
 from mri.errors import BoxOutsidePhantomError, RoiError
-from mri.phantom import find_phantom, phantom_mask
+from mri.phantom import find_phantom
 
 #: Default erosion of the automatic phantom mask (pixels) and NEMA box layout (pixels).
 PHANTOM_EROSION_PX = 5
@@ -79,12 +82,14 @@ class Roi:
     """A resolved ROI on one slice: its label (reproducible ROI text) and its pixels, as a
     boolean ``pixel_mask`` or, for rectangles, as the box (row, col, height, width) in pixels
     of an image of ``shape`` (rows, cols), which measures slice directly. :attr:`mask` is
-    the boolean mask either way."""
+    the boolean mask either way. ``note`` is a :class:`mri.quality.QualityWarning` when the
+    ROI was placed otherwise than asked (a shrunk default layout)."""
 
     label: str
     pixel_mask: np.ndarray | None = None
     box: tuple[int, int, int, int] | None = None
     shape: tuple[int, int] | None = None
+    note: object = None  # a mri.quality.QualityWarning on how the ROI was placed
 
     def __post_init__(self):
         if self.pixel_mask is None and (self.box is None or self.shape is None):
@@ -232,31 +237,66 @@ def nema5_boxes(centre_px, size_px, offset_px) -> tuple[tuple[str, tuple[int, in
     )
 
 
+#: Smallest box side (pixels) of a shrunk default layout: 25 pixels estimate sigma to 14 %.
+NEMA5_MIN_SIZE_PX = 5
+
+
+def _fits(boxes, phantom: np.ndarray) -> list[str]:
+    """The names of the boxes that leave the image or the (filled) phantom mask."""
+    rows, cols = phantom.shape
+    return [name for name, (r, c, h, w) in boxes
+            if r < 0 or c < 0 or r + h > rows or c + w > cols or not phantom[r : r + h, c : c + w].all()]
+
+
+def _largest_layout(fit, phantom: np.ndarray) -> tuple[int, int] | None:
+    """The (size, offset) in pixels of the largest NEMA layout inside the phantom, size first
+    (from NEMA5_SIZE_PX down to NEMA5_MIN_SIZE_PX), then offset (from NEMA5_OFFSET_PX down
+    to the size, where the boxes would touch); None when even the smallest does not fit."""
+    for size in range(NEMA5_SIZE_PX, NEMA5_MIN_SIZE_PX - 1, -1):
+        for offset in range(NEMA5_OFFSET_PX, size - 1, -1):
+            if not _fits(nema5_boxes(fit.centre_px, (size, size), (offset, offset)), phantom):
+                return size, offset
+    return None
+
+
 def _nema5(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...]:
+    """The five NEMA boxes; the default layout shrinks to the largest that fits (a note on
+    the centre box says so), an explicit one is refused when a box leaves the phantom."""
     size_l = spec.lengths[0] if spec.lengths else Length(NEMA5_SIZE_PX, "px")
     off_l = spec.lengths[1] if len(spec.lengths) > 1 else Length(NEMA5_OFFSET_PX, "px")
     sr, sc = spacing if spacing else (None, None)
     size = (int(round(size_l.pixels(sr, spec.text))), int(round(size_l.pixels(sc, spec.text))))
     offset = (off_l.pixels(sr, spec.text), off_l.pixels(sc, spec.text))
     phantom, fit = found
-    rois, outside = [], []
-    for name, box in nema5_boxes(fit.centre_px, size, offset):
-        label = f"nema5 {name} {_box_label(*box)}"
-        rows, cols = image.shape
-        if box[0] < 0 or box[1] < 0 or box[0] + box[2] > rows or box[1] + box[3] > cols:
-            outside.append(name)  # its mask (for the figure) is clipped to the image
-        elif not phantom[box[0] : box[0] + box[2], box[1] : box[1] + box[3]].all():
-            outside.append(name)
-        rois.append(Roi(label, None, box, image.shape))
+    boxes = nema5_boxes(fit.centre_px, size, offset)
+    outside = _fits(boxes, phantom)
+    note = None
+    if outside and not spec.lengths:
+        layout = _largest_layout(fit, phantom)
+        if layout is not None:
+            from mri.quality import QualityWarning
+
+            boxes = nema5_boxes(fit.centre_px, (layout[0],) * 2, (layout[1],) * 2)
+            outside, note = [], QualityWarning(
+                "boxes_shrunk",
+                f"the default NEMA boxes ({NEMA5_SIZE_PX} px at {NEMA5_OFFSET_PX} px from the "
+                f"centre) leave the phantom ({', '.join(_fits(nema5_boxes(fit.centre_px, size, offset), phantom))}); "
+                f"measured with {layout[0]} px boxes at {layout[1]} px (nema5:{layout[0]}:{layout[1]})",
+                {"size_px": layout[0], "offset_px": layout[1], "default_size_px": NEMA5_SIZE_PX,
+                 "default_offset_px": NEMA5_OFFSET_PX})
+    rois = tuple(Roi(f"nema5 {name} {_box_label(*box)}", None, box, image.shape,
+                     note if name == "centre" else None) for name, box in boxes)
     if outside:
         centre = ", ".join(f"{v:.1f}" for v in fit.centre_px)
+        smallest = "" if spec.lengths else (f"; even {NEMA5_MIN_SIZE_PX} x {NEMA5_MIN_SIZE_PX} px "
+                                             "boxes do not fit")
         raise BoxOutsidePhantomError(
             f"ROI {spec.text!r}: the {', '.join(outside)} box(es) reach outside the phantom "
-            f"({fit.shape} centre row, col {centre}, found at threshold {fit.threshold:.4g}); "
-            "use smaller nema5:SIZE:OFFSET or explicit boxes",
-            tuple(rois), fit,
+            f"({fit.shape} centre row, col {centre}, found at threshold {fit.threshold:.4g})"
+            f"{smallest}; use smaller nema5:SIZE:OFFSET or explicit boxes",
+            rois, fit,
         )
-    return tuple(rois)
+    return rois
 
 
 def _corners(spec: RoiSpec, image: np.ndarray, spacing, found) -> tuple[Roi, ...]:
@@ -322,7 +362,7 @@ def resolve_roi(spec: RoiSpec, image: np.ndarray, spacing, slice_index: int = 0,
             erosion.pixels(spacing[0] if spacing else None, spec.text),
             erosion.pixels(spacing[1] if spacing else None, spec.text),
         )
-        mask = found[0] if found is not None else phantom_mask(image)
+        mask = (found or find_phantom(image))[0]
         rois = (Roi(spec.text, _eroded(mask, radius)),)
     elif spec.kind == "nema5":
         rois = _nema5(spec, image, spacing, found)

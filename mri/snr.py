@@ -35,8 +35,9 @@ from statistics import fmean
 
 import numpy as np
 
-from mri.errors import MeasurementError, RoiError
+from mri.errors import MeasurementError, PairMismatchError, RoiError
 from mri.phantom import bounding_box
+from mri.quality import QualityWarning
 from mri.roi import Roi, RoiSpec, parse_roi, resolve_roi
 
 PAIR_METHODS = ("thesis", "nema")
@@ -62,19 +63,22 @@ RICIAN_BIAS_SNR = 9.0
 @dataclass(frozen=True)
 class RoiMeasure:
     """One signal ROI: ``signal`` mean of the image, ``noise`` single-image sigma (pixel
-    units), ``snr``."""
+    units), ``snr``, and ``dof``, the degrees of freedom of the noise estimate (see
+    :func:`snr_standard_error`)."""
 
     roi: str
     n_pixels: int
     signal: float
     noise: float
     snr: float
+    dof: float
 
 
 @dataclass(frozen=True)
 class MethodResult:
     """One method on one slice of one image ("a", "b") or of the pair ("a-b"): per-ROI
-    measures and their means; ``noise_rois`` labels the background method's air ROIs."""
+    measures and their means, the 95 % interval of the mean SNR (:func:`snr_interval`);
+    ``noise_rois`` labels the background method's air ROIs."""
 
     method: str
     image: str
@@ -82,6 +86,7 @@ class MethodResult:
     signal: float
     noise: float
     snr: float
+    snr_ci95: tuple[float, float]
     noise_rois: tuple[str, ...] = ()
 
 
@@ -91,7 +96,7 @@ class SliceResult:
     and sum a (pixel units) from which a volume's difference is summed (None without b). A
     slice of a volume whose ROIs cannot be placed (no phantom, a box outside it) has no
     methods and says why in ``skipped``; it is left out of the summaries (its difference is
-    None when sum a <= 0)."""
+    None when sum a <= 0). ``warnings``: the slice's quality checks (:mod:`mri.quality`)."""
 
     index: int
     difference_percent: float | None
@@ -99,16 +104,19 @@ class SliceResult:
     sum_abs_difference: float | None
     sum_a: float
     skipped: str = ""
+    warnings: tuple[QualityWarning, ...] = ()
 
 
 @dataclass(frozen=True)
 class MethodSummary:
     """One method over all measured slices (and both images for a single-image method):
-    mean, minimum and maximum SNR, mean signal and noise, and the normalised SNR (SNR x the
-    factor of :func:`mri.normalise.normalisation_factor`) when the headers allow it."""
+    mean SNR and its 95 % interval, minimum and maximum SNR, mean signal and noise, and the
+    normalised SNR (SNR x the factor of :func:`mri.normalise.normalisation_factor`) when the
+    headers allow it."""
 
     method: str
     snr: float
+    snr_ci95: tuple[float, float]
     snr_min: float
     snr_max: float
     signal: float
@@ -119,12 +127,14 @@ class MethodSummary:
 @dataclass(frozen=True)
 class PairResult:
     """Measured images: per-slice results, per-method summaries, total difference (percent;
-    None for a single image) and the normalisation factor used (None if unknown)."""
+    None for a single image), the normalisation factor used (None if unknown) and the quality
+    warnings of every slice (:mod:`mri.quality`)."""
 
     slices: tuple[SliceResult, ...]
     summaries: tuple[MethodSummary, ...]
     difference_percent: float | None
     normalisation_factor: float | None = None
+    warnings: tuple[QualityWarning, ...] = ()
 
     def summary(self, method: str) -> MethodSummary:
         return next(s for s in self.summaries if s.method == method)
@@ -273,7 +283,7 @@ def _finite(value: float, stage: str) -> float:
     return value
 
 
-def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure:
+def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float, dof: float) -> RoiMeasure:
     _finite(noise, f"the noise of ROI {roi.label!r}")
     if not noise > 0.0:
         raise MeasurementError(
@@ -283,7 +293,7 @@ def _roi_measure(roi: Roi, signal_image: np.ndarray, noise: float) -> RoiMeasure
     signal = _finite(float(np.mean(roi.pixels(signal_image), dtype=np.float64)),
                      f"the signal of ROI {roi.label!r}")
     return RoiMeasure(roi.label, roi.n_pixels, signal, noise,
-                      _finite(signal / noise, f"the SNR of ROI {roi.label!r}"))
+                      _finite(signal / noise, f"the SNR of ROI {roi.label!r}"), float(dof))
 
 
 def measure_roi(a: np.ndarray, b: np.ndarray, roi: Roi, method: str) -> RoiMeasure:
@@ -295,24 +305,65 @@ def measure_roi(a: np.ndarray, b: np.ndarray, roi: Roi, method: str) -> RoiMeasu
                                f"{', '.join(PAIR_METHODS)}")
     if roi.box is not None:
         block_a, block_b = roi.pixels(a), roi.pixels(b)
+        rows, cols = block_a.shape
         if method == "thesis":
-            rows, cols = block_a.shape
             noise = _thesis_sd(_sum_squared_steps(_row_blocks(block_a, block_b)), rows * (cols - 1))
+            dof = THESIS_DOF_PER_PAIR * rows * (cols - 1)
         else:
-            noise = nema_noise(np.subtract(block_a, block_b, dtype=np.float64))
+            noise, dof = nema_noise(np.subtract(block_a, block_b, dtype=np.float64)), rows * cols - 1
     else:
         box = bounding_box(roi.mask) or (slice(0, 0), slice(0, 0))
         diff, mask = np.subtract(a[box], b[box], dtype=np.float64), roi.mask[box]
-        noise = thesis_noise(diff, mask) if method == "thesis" else nema_noise(diff, mask)
-    return _roi_measure(roi, a, noise)
+        if method == "thesis":
+            noise = thesis_noise(diff, mask)
+            dof = THESIS_DOF_PER_PAIR * int(np.count_nonzero(mask[:, 1:] & mask[:, :-1]))
+        else:
+            noise, dof = nema_noise(diff, mask), roi.n_pixels - 1
+    return _roi_measure(roi, a, noise, dof)
+
+
+#: Degrees of freedom per neighbour pair of the thesis noise: the consecutive differences of
+#: a row share a pixel (correlation -1/2), so the sum of their squares varies as much as that
+#: of 2/3 as many independent squares (variance 12 sigma^4 a pair against 8).
+THESIS_DOF_PER_PAIR = 2.0 / 3.0
+#: Kurtosis of the Rayleigh distribution (magnitude noise in air): the sample variance of n
+#: air pixels has the relative variance (kurtosis - 1) / n, i.e. 2 n / (kurtosis - 1) degrees
+#: of freedom.
+RAYLEIGH_KURTOSIS = 3.245
+#: Two-sided 95 % quantile of the normal distribution.
+Z95 = 1.959964
+
+
+def snr_standard_error(snr: float, dof: float) -> float:
+    """Standard error of an SNR whose noise sigma was estimated with ``dof`` degrees of
+    freedom: SNR / sqrt(2 dof) (the delta method on a chi-square variance; the error of the
+    signal mean, sigma / sqrt(n), is smaller by the SNR and left out)."""
+    return snr / math.sqrt(2.0 * dof)
+
+
+def _interval(mean: float, standard_error: float) -> tuple[float, float]:
+    return (mean - Z95 * standard_error, mean + Z95 * standard_error)
+
+
+def _half_width(interval: tuple[float, float]) -> float:
+    """The standard error behind a :func:`_interval`."""
+    return (interval[1] - interval[0]) / (2 * Z95)
 
 
 def _method_result(method, image, measures, noise_rois=()) -> MethodResult:
+    """The mean of the ROIs and its 95 % interval: the ROIs' noise estimates are independent
+    (their standard errors add in quadrature), except the background method's one shared
+    estimate (fully correlated)."""
+    snr = fmean(m.snr for m in measures)
+    if noise_rois:
+        error = snr_standard_error(snr, measures[0].dof)
+    else:
+        error = math.sqrt(sum(snr_standard_error(m.snr, m.dof) ** 2 for m in measures)) / len(measures)
     return MethodResult(
         method, image, tuple(measures),
         signal=fmean(m.signal for m in measures),
         noise=fmean(m.noise for m in measures),
-        snr=fmean(m.snr for m in measures),
+        snr=snr, snr_ci95=_interval(snr, error),
         noise_rois=tuple(noise_rois),
     )
 
@@ -334,14 +385,15 @@ def measure_single(image: np.ndarray, name: str, rois: tuple[Roi, ...], method: 
     image = image.astype(np.float64, copy=False)
     if method == "smoothed":
         noise_image = smoothed_noise_image(image, kernel_px)
-        measures = [_roi_measure(roi, image, smoothed_noise(roi.pixels(noise_image)))
+        measures = [_roi_measure(roi, image, smoothed_noise(roi.pixels(noise_image)), roi.n_pixels - 1)
                     for roi in rois]
         return _method_result(method, name, measures)
     if method == "background":
         if not background_rois:
             raise MeasurementError("background method: no background (air) ROI given")
         noise = background_noise(image, background_rois)
-        return _method_result(method, name, [_roi_measure(roi, image, noise) for roi in rois],
+        dof = 2.0 * sum(roi.n_pixels for roi in background_rois) / (RAYLEIGH_KURTOSIS - 1.0)
+        return _method_result(method, name, [_roi_measure(roi, image, noise, dof) for roi in rois],
                               [roi.label for roi in background_rois])
     raise MeasurementError(f"method {method!r} is not a single-image method; use one of "
                            f"{', '.join(SINGLE_METHODS)}")
@@ -387,10 +439,12 @@ def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | Non
         results = [m for s in measured for m in s.methods if m.method == method]
         snrs = [m.snr for m in results]
         mean = fmean(snrs)
+        error = math.sqrt(sum(_half_width(m.snr_ci95) ** 2 for m in results)) / len(results)
         summaries.append(
             MethodSummary(
                 method,
                 snr=mean,
+                snr_ci95=_interval(mean, error),
                 snr_min=min(snrs),
                 snr_max=max(snrs),
                 signal=fmean(m.signal for m in results),
@@ -403,14 +457,34 @@ def summarise(slices: tuple[SliceResult, ...], normalisation_factor: float | Non
     else:
         total = _finite(_percent(sum(s.sum_abs_difference for s in slices),
                                  sum(s.sum_a for s in slices)), "the total difference")
-    return PairResult(slices, tuple(summaries), total, normalisation_factor)
+    return PairResult(slices, tuple(summaries), total, normalisation_factor, _volume_warnings(slices))
+
+
+def _volume_warnings(slices: tuple[SliceResult, ...]) -> tuple[QualityWarning, ...]:
+    """The slices' warnings: all of a single slice's; of a volume, the first of each kind
+    (code, method, image), naming its slice and how many slices had it."""
+    if len(slices) == 1:
+        return slices[0].warnings
+    first, counts = {}, {}
+    for s in slices:
+        for w in s.warnings:
+            key = (w.code, w.values.get("method"), w.values.get("image"))
+            counts[key] = counts.get(key, 0) + 1
+            first.setdefault(key, (s.index, w))
+    out = []
+    for key, (index, w) in first.items():
+        more = counts[key] - 1
+        out.append(QualityWarning(w.code, f"slice {index}{f' (and {more} more)' if more else ''}: "
+                                          f"{w.message}",
+                                  {**w.values, "slice": index, "slices_affected": counts[key]}))
+    return tuple(out)
 
 
 #: ROI kinds that need the phantom found on the slice.
 _PHANTOM_KINDS = ("phantom", "nema5", "corners")
 
 
-def measure_pair(
+def measure_arrays(
     a: np.ndarray, b: np.ndarray | None, spacing_mm, specs_by_method: dict[str, tuple[RoiSpec, ...]],
     background_specs: tuple[RoiSpec, ...] | None = None, kernel_px: int = SMOOTHING_KERNEL_PX,
     normalisation_factor: float | None = None,
@@ -440,18 +514,35 @@ def _measure_slice_or_skip(k, a, b, spacing_mm, specs_by_method, background_spec
                            needs_phantom) -> SliceResult:
     """Slice ``k`` measured, or (in a volume) skipped with the reason its ROIs or measures
     failed; pixels are read as they are (float32 or float64) and measured in float64."""
-    from mri.phantom import find_phantom
+    import dataclasses
+
+    from mri.phantom import find_phantom, phantom_centroid
+    from mri.quality import check_same_object, outlier_box_warnings, phantom_warnings, registration_warnings
 
     a_k, b_k = a[k], None if b is None else b[k]
     try:
         found = find_phantom(a_k) if needs_phantom else None
+        warnings = []
+        if found is not None:
+            if b_k is not None:
+                check_same_object(found[1], phantom_centroid(b_k, found[1].centre_px))
+            warnings += phantom_warnings(found[1])
 
         def resolve(specs):
             return tuple(roi for spec in specs for roi in resolve_roi(spec, a_k, spacing_mm, k, found))
 
         rois = {method: resolve(specs) for method, specs in specs_by_method.items()}
-        return measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px)
-    except (RoiError, MeasurementError) as exc:
+        for note in (roi.note for group in rois.values() for roi in group if roi.note):
+            if note not in warnings:
+                warnings.append(note)
+        result = measure_slice(k, a_k, b_k, rois, resolve(background_specs), kernel_px)
+        warnings += [w for m in result.methods for w in outlier_box_warnings(m)]
+        if b_k is not None and k == a.shape[0] // 2:
+            # shift and gain of b on one slice (the middle one of a volume: a moved phantom or
+            # a gain change shows on every slice, and the fit costs a millisecond a slice)
+            warnings += registration_warnings(a_k, b_k)
+        return dataclasses.replace(result, warnings=tuple(warnings))
+    except (RoiError, MeasurementError, PairMismatchError) as exc:
         if a.shape[0] == 1:
             raise
         if b_k is None:

@@ -14,6 +14,7 @@ from mri.image import MriImage
 from mri.io import load_image
 from mri.normalise import normalisation_factor, normalisation_inputs
 from mri.pair import check_pair
+from mri.quality import QualityWarning
 from mri.roi import Roi, parse_roi, resolve_roi
 from mri.snr import (
     DEFAULT_BACKGROUND_ROI,
@@ -23,7 +24,7 @@ from mri.snr import (
     SINGLE_METHODS,
     SMOOTHING_KERNEL_PX,
     PairResult,
-    measure_pair,
+    measure_arrays,
 )
 
 
@@ -48,7 +49,8 @@ class SnrOptions:
 @dataclass(frozen=True, eq=False)
 class MeasuredPair:
     """Loaded, checked and measured images (``b`` None for one image) with their ROI specs,
-    warnings and the normalisation inputs used or the fields that were missing."""
+    quality warnings (:class:`mri.quality.QualityWarning`) and the normalisation inputs
+    used or the fields that were missing."""
 
     name: str
     a: MriImage
@@ -56,7 +58,7 @@ class MeasuredPair:
     specs: dict
     background_specs: tuple
     result: PairResult
-    warnings: tuple[str, ...]
+    warnings: tuple[QualityWarning, ...]
     normalisation: dict
 
 
@@ -88,30 +90,55 @@ def _specs(options: SnrOptions, methods, n_slices: int) -> tuple[dict, tuple]:
     return by_method, background
 
 
-def measure_files(name: str, path_a, path_b, options: SnrOptions) -> MeasuredPair:
-    """Load, check and measure image ``path_a`` alone (``path_b`` None) or the pair."""
-    a = load_image(path_a)
-    b = None if path_b is None else load_image(path_b)
+def load_pair(path_a, path_b) -> tuple[MriImage, MriImage]:
+    """Load two repeated acquisitions and check that they can be compared pixel by pixel
+    (:func:`mri.pair.check_pair`: :class:`mri.errors.PairMismatchError` otherwise; harmless
+    header differences come back as ``header_differs`` warnings of :func:`measure_pair`)."""
+    a, b = load_image(path_a), load_image(path_b)
+    check_pair(a, b, (Path(a.source).name, Path(b.source).name))
+    return a, b
+
+
+def measure_pair(a, b=None, options: SnrOptions | None = None, name: str | None = None) -> MeasuredPair:
+    """Load (paths) or take (:class:`MriImage`) image ``a`` alone (``b`` None) or the pair,
+    check it and measure it by ``options`` (default: thesis and nema for a pair, smoothed for
+    one image). The result's ``warnings`` are :class:`mri.quality.QualityWarning` with codes."""
+    options = options or SnrOptions()
+    a = a if isinstance(a, MriImage) else load_image(a)
+    b = b if b is None or isinstance(b, MriImage) else load_image(b)
+    name = name or ("pair" if b is not None else "image")
     methods = methods_for(options, 1 if b is None else 2)
-    warnings = () if b is None else check_pair(a, b, (Path(path_a).name, Path(path_b).name))
+    warnings = [] if b is None else [
+        QualityWarning("header_differs", text, {})
+        for text in check_pair(a, b, (Path(a.source).name, Path(b.source).name))]
     specs, background = _specs(options, methods, a.n_slices)
     inputs, missing = normalisation_inputs(a, options.normalisation)
     factor = None if inputs is None else normalisation_factor(inputs)
-    result = measure_pair(a.pixels, None if b is None else b.pixels, a.pixel_spacing_mm, specs,
-                          background, options.kernel_px, factor)
+    result = measure_arrays(a.pixels, None if b is None else b.pixels, a.pixel_spacing_mm, specs,
+                            background, options.kernel_px, factor)
+    warnings += result.warnings
     low = [s for s in result.summaries if s.snr < RICIAN_BIAS_SNR]
     if low:
-        warnings += (
+        warnings.append(QualityWarning(
+            "rician_bias",
             f"SNR {low[0].snr:.2f} ({low[0].method}) is below {RICIAN_BIAS_SNR:g}: in magnitude "
             "images Rician noise biases it upward (+1 % at 8.7, +24 % at 2)",
-        )
+            {"method": low[0].method, "snr": low[0].snr, "limit": RICIAN_BIAS_SNR}))
     skipped = [s for s in result.slices if s.skipped]
     if skipped:
-        warnings += (f"{len(skipped)} of {len(result.slices)} slices skipped (first: slice "
-                     f"{skipped[0].index}: {skipped[0].skipped})",)
+        warnings.append(QualityWarning(
+            "slices_skipped",
+            f"{len(skipped)} of {len(result.slices)} slices skipped (first: slice "
+            f"{skipped[0].index}: {skipped[0].skipped})",
+            {"skipped": [s.index for s in skipped], "slices": len(result.slices)}))
+    if missing and a.format == "dicom":  # other formats carry no such header: no surprise
+        warnings.append(QualityWarning(
+            "normalisation_missing",
+            f"normalised SNR not computed: the header lacks {', '.join(missing)} (give them "
+            "with --acquisition FIELD=VALUE)", {"missing": list(missing)}))
     normalisation = ({"factor": factor, "inputs": dataclasses.asdict(inputs)} if inputs
                      else {"factor": None, "missing": list(missing)})
-    return MeasuredPair(name, a, b, specs, background, result, warnings, normalisation)
+    return MeasuredPair(name, a, b, specs, background, result, tuple(warnings), normalisation)
 
 
 def figure_panel(title: str, a: MriImage, b: MriImage | None, specs: dict, background: tuple,
@@ -136,12 +163,28 @@ def figure_panel(title: str, a: MriImage, b: MriImage | None, specs: dict, backg
         )
     suffix = f", slice {index}" if a.n_slices > 1 else ""
     return PairPanel(f"{title}{suffix}", a.pixels[index], None if b is None else b.pixels[index],
-                     rois, Path(a.source).name, None if b is None else Path(b.source).name)
+                     rois, Path(a.source).name + suffix, None if b is None else Path(b.source).name,
+                     a.pixel_spacing_mm)
+
+
+def input_sha256(path) -> str:
+    """SHA-256 (hex) of an input file, or of a series folder: its files' relative names and
+    contents in sorted order."""
+    import hashlib
+
+    p, digest = Path(path), hashlib.sha256()
+    files = sorted(f for f in p.rglob("*") if f.is_file()) if p.is_dir() else [p]
+    for f in files:
+        if p.is_dir():
+            digest.update(str(f.relative_to(p)).encode() + b"\0")
+        digest.update(f.read_bytes())
+    return digest.hexdigest()
 
 
 def _meta(img: MriImage) -> dict:
     return {
-        "source": img.source, "format": img.format, "shape": list(img.shape),
+        "source": img.source, "sha256": input_sha256(img.source), "format": img.format,
+        "shape": list(img.shape),
         "pixel_spacing_mm": img.pixel_spacing_mm, "slice_thickness_mm": img.slice_thickness_mm,
         "orientation": img.orientation, "scanner": img.scanner, "series": img.series,
         "series_number": img.series_number, "acquisition": img.acquisition,
@@ -156,8 +199,8 @@ def pair_dict(pair: MeasuredPair) -> dict:
         "rois": {m: [s.text for s in specs] for m, specs in pair.specs.items()},
         "background_rois": [s.text for s in pair.background_specs],
         "normalisation": pair.normalisation,
-        "warnings": list(pair.warnings),
         **dataclasses.asdict(pair.result),
+        "warnings": [dataclasses.asdict(w) for w in pair.warnings],
     }
 
 
@@ -239,6 +282,8 @@ def pair_text(pair) -> list[str]:
                 f"{summary.snr:.2f} (min {summary.snr_min:.2f}, max {summary.snr_max:.2f}), "
                 f"signal {summary.signal:.2f}, noise {summary.noise:.3f}"
             )
+    lines.append("SNR with its 95 % interval (sampling error of the noise estimate): " + "; ".join(
+        f"{s.method} {s.snr:.2f} [{s.snr_ci95[0]:.2f}, {s.snr_ci95[1]:.2f}]" for s in res.summaries))
     if res.normalisation_factor is None:
         lines.append("normalised SNR: not computed, the header lacks "
                      f"{', '.join(pair.normalisation['missing'])} (give them with --acquisition)")

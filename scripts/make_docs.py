@@ -35,7 +35,7 @@ JOBS = [
     (["sensor", "--preset", "sample-a-as-cut", "--out", "{out}"],
      {"sample-a-as-cut-calibration.png": "sensor-calibration.png"}),
     (["line", "--length", "7.25", "--bore", "0.004", "--volume", "4.5e-5", "--pressure", "5e5", "--out", "{out}"],
-     {"line-frequency-response.png": "line-frequency-response.png"}),
+     {"line-frequency-response.png": "line-frequency-response.png", "line-step.png": "line-step.png"}),
     (["loop", "--out", "{out}"], {"loop.png": "loop-run.png"}),
     (["loop", "--study", "observer", "--out", "{out}"],
      {"loop-observer-phase.png": "loop-observer-phase.png", "loop-observer-smc.png": "loop-observer-smc.png"}),

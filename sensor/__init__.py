@@ -3,7 +3,8 @@
 A small lazy facade (``import sensor`` loads nothing heavy): the chain solver and the
 qualifiers of a design, the sensor model and its datasheet, design-space sweeps, the
 range-targeted optimiser, and the errors. The subpackages hold the rest: :mod:`sensor.mechanics`, :mod:`sensor.readout`,
-:mod:`sensor.design_space`, :mod:`sensor.pneumatic`; :mod:`sensor.cli` is the ``dacm``
+:mod:`sensor.design_space`, :mod:`sensor.pneumatic`, :mod:`sensor.artefact` (the MRI
+artefact); :mod:`sensor.cli` is the ``dacm``
 command.
 
 >>> import geometry, sensor

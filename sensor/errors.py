@@ -96,3 +96,8 @@ class ResourceNote(UserWarning):
 class DesignError(SensorInputError):
     """A range-targeted design that cannot be made: a bad target or bounds, or a range no
     feasible body reaches (the message names the reachable interval)."""
+
+
+class ArtefactError(SensorInputError):
+    """An MRI artefact prediction that cannot run: a bad protocol, B0 direction, grid or a
+    material without a susceptibility (:mod:`sensor.artefact`)."""

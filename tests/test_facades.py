@@ -8,7 +8,7 @@ import sys
 import pytest
 
 
-@pytest.mark.parametrize("package", ["geometry", "sensor"])
+@pytest.mark.parametrize("package", ["geometry", "sensor", "mri"])
 def test_every_public_name_resolves(package):
     mod = importlib.import_module(package)
     assert mod.__all__ == sorted(mod.__all__)

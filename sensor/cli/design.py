@@ -1,139 +1,223 @@
 """``dacm design``: the body of a given force range with the lowest predicted hysteresis
-(:mod:`sensor.design_space.optimise`), beside the best basis body of the same range."""
+(:mod:`sensor.design_space.optimise`), beside the best basis body of the same range, with its
+tolerance report as cut (:mod:`sensor.design_space.tolerance`), optionally the robust design
+(:mod:`sensor.design_space.robust`) and the continuum check, and the files to cut it from."""
 
 from __future__ import annotations
 
 import argparse
 import json
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
-from sensor.cli.parser import add_target_output_argument
+from sensor.cli.output import add_output_arguments, claim, make_out_dir
 from sensor.cli.progress import add_quiet_argument, busy
 
-#: The files written to --out.
-FILES = ("design.toml", "design-datasheet.json", "design-profile.png", "basis.toml")
+#: The files written to --out (basis.toml when a basis body reaches the range).
+FILES = ("design.toml", "design-datasheet.json", "design-tolerance.json", "design-profile.png",
+         "design-drawing.svg", "design-drawing.png", "design.dxf", "basis.toml")
 #: Library field -> flag, for the one-line errors.
-FLAGS = {"range_N": "--range", "target_output_mm": "--target-output", "hinge_min_mm": "--hinge-min",
-         "hinge_max_mm": "--hinge-max", "robust_sd_mm": "--robust", "min_yield": "--min-yield",
-         "seed": "--seed"}
+FLAGS = {"range_N": "--range", "travel_mm": "--travel", "hinge_min_mm": "--hinge-min",
+         "hinge_max_mm": "--hinge-max", "min_yield": "--min-yield", "seed": "--seed", "kerf": "--kerf",
+         "draws": "--draws"}
+KEYS = ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",
+        "strain_energy_mJ", "stress_utilisation")
 
 
 def register(subparsers) -> None:
+    from geometry.process import WATER_JET
+
     p = subparsers.add_parser(
         "design", help="optimise a body for a force range: lowest hysteresis within every rule",
         description="Find the proposed DACM whose range (input force at the output travel) is "
                     "N within 1 %% and whose predicted hysteresis is lowest, subject to every "
-                    "feasibility rule and the allowable hinge stress at full scale; phi1, phi2 "
-                    "and the thickness of each mirror-symmetric hinge pair vary (differential "
-                    "evolution, then a Powell search). Prints it beside the best basis body of "
-                    "the same range and writes OUT/design.toml (for --config), its datasheet, "
-                    "its profile picture and OUT/basis.toml.")
+                    "feasibility rule, the hinge bounds and the allowable hinge stress at full "
+                    "scale; phi1, phi2 and the thickness of each mirror-symmetric hinge pair vary "
+                    "(multi-start SLSQP with the range as an equality constraint). Prints it "
+                    "beside the best basis body of the same range, with the tolerance report of "
+                    "the parts cut from it, and writes OUT/design.toml (for --config), its "
+                    "datasheet, tolerance report, profile, dimensioned drawing, kerf-compensated "
+                    "DXF and OUT/basis.toml.")
     p.add_argument("--range", type=float, required=True, metavar="N", dest="range_N",
-                   help="full-scale force, N (the force that moves the mirror over --target-output)")
-    add_target_output_argument(p, "mirror travel at full scale, mm (default 1; below the fiber clearance)",
-                               old="--travel", default=1.0)
+                   help="full-scale force, N (the force that moves the mirror over --travel)")
+    p.add_argument("--travel", type=float, default=1.0, metavar="MM",
+                   help="mirror travel at full scale, mm (default 1; below the fiber clearance)")
     p.add_argument("--hinge-min", type=float, metavar="MM",
-                   help="thinnest hinge, mm (default the process' min_feature_mm, 0.25)")
+                   help=f"thinnest drawn hinge, mm (default the process minimum, {WATER_JET.min_drawn_hinge_mm:g})")
     p.add_argument("--hinge-max", type=float, metavar="MM",
-                   help="thickest hinge, mm (default the link width, 2)")
-    p.add_argument("--robust", type=float, default=0.0, metavar="SD",
-                   help="maximise the 10th-percentile quality under hinge scatter of SD mm instead")
+                   help="thickest hinge, mm (default 0.4 x the link width, 0.8)")
+    p.add_argument("--robust", action="store_true",
+                   help="also the robust design: lowest median H of the parts as cut with "
+                        "P(stress > allowable) <= 5 %%, range 5-95 %% band inside +-10 %% and --min-yield")
     p.add_argument("--min-yield", type=float, default=0.9, metavar="Y",
-                   help="with --robust: least fraction of draws that can be cut (default 0.9)")
+                   help="with --robust: least fraction of parts with every hinge >= min_feature_mm (default 0.9)")
+    p.add_argument("--draws", type=int, default=200, metavar="N",
+                   help="Monte Carlo draws of the tolerance report (default 200)")
+    p.add_argument("--kerf", type=float, default=WATER_JET.kerf_mm, metavar="MM",
+                   help=f"jet width the DXF is compensated for, mm (default the process kerf, {WATER_JET.kerf_mm:g}; "
+                        "0: the drawn profile)")
+    p.add_argument("--verify", action="store_true",
+                   help="also the continuum FE check of the result (nonlinear, at full scale)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--workers", type=int, default=0, metavar="N",
                    help="local processes (default: one per core; 1 = serial)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on this Dask distributed scheduler")
-    add_output_arguments(p, "design.toml, its datasheet and profile, basis.toml")
+    add_output_arguments(p, "design.toml, its datasheet, tolerance report, drawing, DXF, basis.toml")
     add_quiet_argument(p)
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.set_defaults(func=run)
 
 
+def _check_args(args) -> None:
+    from geometry.params import FIELD_RULES
+    from sensor.errors import DesignError
+    from sensor.validation import Number
+
+    FIELD_RULES["kerf_mm"].check("kerf", args.kerf, DesignError)
+    Number(0.0, 1.0, lo_open=True, hi_open=True).check("min_yield", args.min_yield, DesignError)
+    Number(10, 100_000, integer=True).check("draws", args.draws, DesignError)
+
+
 def run(args: argparse.Namespace) -> int:
-    from geometry.atomic import atomic_path, save_figure
-    from geometry.drawing import profile_figure
-    from geometry.params import save_design
+    from geometry.checks import check_design
+    from geometry.params import cut_note, load_design
     from sensor.design_space.execution import task_pool
-    from sensor.design_space.optimise import DesignProblem, describe, optimise
+    from sensor.design_space.optimise import DesignProblem, accept, describe, optimise
+    from sensor.design_space.robust import robust
+    from sensor.design_space.tolerance import tolerance, tolerance_text
     from sensor.errors import DesignError
 
-    kw = dict(range_N=args.range_N, target_output_mm=args.target_output, hinge_min_mm=args.hinge_min,
-              hinge_max_mm=args.hinge_max, robust_sd_mm=args.robust, min_yield=args.min_yield, seed=args.seed)
+    kw = dict(range_N=args.range_N, travel_mm=args.travel, hinge_min_mm=args.hinge_min,
+              hinge_max_mm=args.hinge_max, seed=args.seed)
     try:
+        _check_args(args)
         problem = DesignProblem(**kw)
-        basis_problem = DesignProblem(**{**kw, "robust_sd_mm": 0.0}, body="basis")
+        basis_problem = DesignProblem(**kw, body="basis")
     except DesignError as exc:
         raise DesignError(_flagged(str(exc))) from None
     claim(args, FILES)
+    tag = f"{args.range_N:g}N".replace("+", "")
     with task_pool(args.workers, args.scheduler) as pool, busy(f"design {args.range_N:g} N", args.quiet) as step:
         try:
             step("the DACM")
-            best = optimise(problem, pool)
+            best = optimise(problem, pool, name=f"design-{tag}")
         except DesignError as exc:
             raise DesignError(_flagged(str(exc))) from None
         try:
             step("the basis body of the same range")
-            basis, no_basis = optimise(basis_problem, pool), ""
+            basis, no_basis = optimise(basis_problem, pool, name=f"basis-{tag}"), ""
         except DesignError as exc:   # a DACM may reach ranges no basis body does
-            basis, no_basis = None, str(exc)
-    tag = f"{args.range_N:g}N".replace("+", "")
-    design = rounded(best.best.design, f"design-{tag}" + ("-robust" if args.robust else ""))
-    basis_design = None if basis is None else rounded(basis.best.design, f"basis-{tag}")
+            basis, no_basis = None, _flagged(str(exc))
+        step("the tolerance report")
+        nominal_tol = tolerance(best.design, problem.process, args.draws, args.seed, args.travel, problem.law)
+        rob = None
+        if args.robust:
+            step("the robust design")
+            rob = robust(problem, best.design, args.draws, args.seed, args.min_yield, name=f"design-{tag}-robust")
+        verification = None
+        if args.verify:
+            from sensor.mechanics.continuum import verify_design
+            step("the continuum check")
+            verification = verify_design(rob.design if rob else best.design, nonlinear=True,
+                                         target_output_mm=args.travel)
+    design = rob.design if rob else best.design
+    tol = rob.tolerance if rob else nominal_tol
     ours = describe(design, problem)
-    theirs = None if basis is None else describe(basis_design, basis_problem)
-    make_out_dir(args.out)
-    paths = [args.out / f for f in FILES[:3 if basis is None else 4]]
-    save_design(design, paths[0])
-    with atomic_path(paths[1]) as tmp:
-        tmp.write_text(json.dumps(ours["datasheet"], indent=1))
-    save_figure(profile_figure(design), paths[2])
-    if basis is not None:
-        save_design(basis_design, paths[3])
-    keys = ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",
-            "strain_energy_mJ", "stress_utilisation")
-    out = {k: ours[k] for k in keys}
-    if args.robust:
-        out.update(quality_p10_mm_per_N=best.best.quality_p10_mm_per_N, yield_fraction=best.best.yield_fraction)
-    out.update(basis=None if basis is None else {k: theirs[k] for k in keys},
+    theirs = None if basis is None else describe(basis.design, basis_problem)
+    paths = _write(args, design, basis, ours, tol)
+    # the written files, read back, must keep every rule
+    # (the robust design's drawn range is not N: its parts' median is; it keeps the rules)
+    for path, prob in ((paths["design.toml"], problem), (paths.get("basis.toml"), basis_problem)):
+        if path is None:
+            continue
+        back = load_design(path)
+        fail = check_design(back).first_failure
+        ok, why = (fail is None, "" if fail is None else fail.message) if rob and prob is problem else accept(prob, back)
+        if not ok:
+            raise DesignError(f"{path}: the written design fails its check ({why}); please report it")
+    out = {k: ours[k] for k in KEYS}
+    out["tolerance"] = tol.to_dict()
+    if rob:
+        nominal = describe(best.design, problem)
+        out["nominal"] = {**{k: nominal[k] for k in KEYS}, "tolerance": nominal_tol.to_dict()}
+        out["robust"] = {"constraints_met": rob.met, "why_not": rob.why, "seconds": rob.seconds}
+    if verification is not None:
+        from sensor.mechanics.continuum import verification_to_dict
+        out["verify"] = verification_to_dict(verification)
+    out.update(basis=None if basis is None else {k: theirs[k] for k in KEYS},
                evaluations=best.evaluations + (basis.evaluations if basis else 0),
-               seconds=best.seconds + (basis.seconds if basis else 0.0), files=[str(p) for p in paths])
+               seconds=best.seconds + (basis.seconds if basis else 0.0), files=[str(p) for p in paths.values()])
     if basis is None:
         out["basis_unreachable"] = no_basis
-    else:  # the ratios the text prints
-        out.update(hysteresis_ratio=ours["hysteresis"] / theirs["hysteresis"], inverse_amplification=1 / ours["amplification"],
-                   resolution_ratio=ours["resolution_N"] / theirs["resolution_N"])
     if args.json:
-        print_json(out, paths)
+        print(json.dumps(out, indent=1, default=str))
         return 0
-    print(f"range {args.range_N:g} N at {args.target_output:g} mm travel: {out['evaluations']} bodies evaluated "
-          f"in {out['seconds']:.1f} s")
-    for label, d in (("DACM", ours), ("basis", theirs)) if theirs else (("DACM", ours),):
-        f = d["design"]
-        angles = f"phi1 = {f['phi1_deg']:.2f}" + (f", phi2 = {f['phi2_deg']:.2f}" if "phi2_deg" in f else "")
-        print(f"  {label:<6} {angles} deg, hinges {' '.join(f'{t:.3f}' for t in f['hinge_thickness_mm'][:12 if label == 'DACM' else 8])} mm")
-        print(f"         range {d['range_N']:.4f} N, H = {d['hysteresis']:.4f}, resolution {1e3 * d['resolution_N']:.3f} mN, "
-              f"A = {d['amplification']:.3f}, k_out {d['k_out_N_per_mm']:.3f} N/mm, SE {d['strain_energy_mJ']:.4f} mJ, "
-              f"stress {d['stress_utilisation']:.2f} x allowable")
+    print(f"range {args.range_N:g} N at {args.travel:g} mm travel ({cut_note(design.kerf_mm)}): "
+          f"{out['evaluations']} bodies evaluated in {out['seconds']:.1f} s")
+    rows = [("DACM" + (" robust" if rob else ""), ours)]
+    if rob:
+        rows.append(("DACM nominal", nominal))
     if theirs:
-        print(f"  DACM / basis: H {out['hysteresis_ratio']:.3f} (1/A = {out['inverse_amplification']:.3f}), "
-              f"resolution {out['resolution_ratio']:.3f}")
+        rows.append(("basis", theirs))
+    for label, d in rows:
+        _print_body(label, d)
+    if theirs:
+        print(f"  DACM / basis: H {ours['hysteresis'] / theirs['hysteresis']:.3f} (1/A = {1 / ours['amplification']:.3f}), "
+              f"resolution {ours['resolution_N'] / theirs['resolution_N']:.3f}")
     else:
         print(f"  basis: {no_basis}")
-    if args.robust:
-        print(f"  robust: 10th-percentile quality {out['quality_p10_mm_per_N']:.2f} mm/N, "
-              f"{100 * out['yield_fraction']:.0f} % of the draws can be cut")
-    for p in paths:
+    for line in tolerance_text(tol):
+        print("  " + line)
+    if rob:
+        print("  nominal design " + tolerance_text(nominal_tol)[1].strip() + "; "
+              + tolerance_text(nominal_tol)[2].strip())
+        print(f"  robust constraints: {'met' if rob.met else 'NOT met: ' + rob.why}")
+    if verification is not None:
+        e = verification.errors_pct
+        print(f"  continuum check (nonlinear, {args.travel:g} mm): beam vs FE k_out {e['k_out_N_per_mm']:+.1f} %, "
+              f"A {e['amplification']:+.1f} %, SE {e['strain_energy_mJ']:+.1f} %")
+    for p in paths.values():
         print(f"wrote {p}")
     return 0
 
 
-def rounded(design, name: str):
-    """The design as it is written: angles to 0.01 deg, hinges to 0.1 um (the range moves
-    by well under 0.1 %; every number printed is of this design)."""
-    return design.replace(phi1_deg=round(design.phi1_deg, 2), name=name,
-                          phi2_deg=None if design.is_basis else round(design.phi2_deg, 2),
-                          hinge_thickness_mm=tuple(round(t, 4) for t in design.hinge_thickness_mm))
+def _print_body(label: str, d: dict) -> None:
+    from geometry.params import design_from_dict
+
+    f = d["design"]
+    used = design_from_dict(f).used_thickness_mm
+    angles = f"phi1 = {f['phi1_deg']:.2f}" + (f", phi2 = {f['phi2_deg']:.2f}" if "phi2_deg" in f else "")
+    print(f"  {label:<12} {angles} deg, hinges {' '.join(f'{t:.4f}' for t in used)} mm")
+    print(f"               range {d['range_N']:.4f} N, H = {d['hysteresis']:.4f}, resolution {1e3 * d['resolution_N']:.3f} mN, "
+          f"A = {d['amplification']:.3f}, k_out {d['k_out_N_per_mm']:.3f} N/mm, SE {d['strain_energy_mJ']:.4f} mJ, "
+          f"stress {d['stress_utilisation']:.3f} x allowable")
+
+
+def _write(args, design, basis, ours: dict, tol) -> dict:
+    """Write every file (each atomically); {name: path}."""
+    import shutil
+    import tempfile
+
+    from geometry.atomic import atomic_path, save_figure
+    from geometry.drawing import dimensioned_figure, profile_figure
+    from geometry.export import export_design
+    from geometry.params import save_design
+
+    make_out_dir(args.out)
+    paths = {name: args.out / name for name in FILES if name != "basis.toml" or basis is not None}
+    save_design(design, paths["design.toml"])
+    with atomic_path(paths["design-datasheet.json"]) as tmp:
+        tmp.write_text(json.dumps(ours["datasheet"], indent=1))
+    with atomic_path(paths["design-tolerance.json"]) as tmp:
+        tmp.write_text(json.dumps({"design": design.name, "tolerance": tol.to_dict()}, indent=1))
+    save_figure(profile_figure(design), paths["design-profile.png"], dpi=150)
+    fig = dimensioned_figure(design, args.kerf)
+    save_figure(fig, paths["design-drawing.svg"])
+    save_figure(fig, paths["design-drawing.png"], dpi=150)
+    with tempfile.TemporaryDirectory(dir=args.out) as tmp:
+        (dxf,) = export_design(design, tmp, ["dxf"], kerf_mm=args.kerf or None)   # 0: the drawing
+        shutil.move(dxf, paths["design.dxf"])
+    if basis is not None:
+        save_design(basis.design, paths["basis.toml"])
+    return paths
 
 
 def _flagged(message: str) -> str:

@@ -119,18 +119,30 @@ def run(args: argparse.Namespace) -> int:
     print(f"\nstep test: valve {step['valve']} opened at 0 s (atmosphere -> {case.pressure_Pa:g} Pa), "
           f"reversed at {step['valve_reversal_s']:g} s")
     print(f" {'model':16s} {'reached':>8s} {'delay 10% (ms)':>15s} {'rise 10-90% (ms)':>17s} "
-          f"{'overshoot':>10s} {'ripple':>7s} {'max valve-chamber gap (kPa)':>28s} {'max Mach':>9s}")
+          f"{'overshoot':>10s} {'ripple':>7s} {'max valve-chamber gap (kPa)':>28s} {'max Mach':>9s} "
+          f"{'exit Mach':>9s} {'choked':>6s}")
     for name, m in step["models"].items():
         ms = [None if m[k] is None else 1e3 * m[k] for k in ("delay_10pct_s", "rise_10_90_s")]
         print(f" {name:16s} {m['reached_pct']:7.1f}% {_fmt(ms[0], 15, '.1f')} {_fmt(ms[1], 17, '.1f')} "
               f"{m['overshoot_pct']:9.1f}% {m['ripple_pct']:6.1f}% "
-              f"{m['max_valve_chamber_gap_Pa'] / 1e3:28.1f} {m['max_mach']:9.3f}")
+              f"{m['max_valve_chamber_gap_Pa'] / 1e3:28.1f} {m['max_mach']:9.3f} {m['max_exit_mach']:9.3f} "
+              f"{'yes' if m['choked'] else 'no':>6s}")
     rh = step["models"].get("richer-hurmuzlu")
     if rh is not None and rh["reached_pct"] < 90.0:
         print(f" note: richer-hurmuzlu attenuates the fully open valve flow "
               f"({1e3 * step['full_open_flow_kg_s']:.2f} g/s, turbulent R_t of eq 5) into a chamber at "
               f"atmosphere by eq 4's factor {step['richer_hurmuzlu_attenuation_at_start']:.3g}: "
               "the chamber stalls")
+    dis = result.get("discharge")
+    if dis is not None:
+        iso, fan = dis["references"]["isothermal"], dis["references"]["fanno"]
+        print(f"\nsteady discharge (distributed line, port node {dis['stagnation_pressure_Pa'] / 1e5:.4g} bar -> "
+              f"{dis['back_pressure_Pa'] / 1e5:.4g} bar): {1e3 * dis['mass_flow_kg_s']:.4g} g/s, exit Mach "
+              f"{dis['exit_mach']:.3f}, {'choked' if dis['choked'] else 'not choked'}, largest element Mach "
+              f"{dis['max_mach']:.3f}")
+        print(f" isothermal with friction (isentropic entrance) {1e3 * iso['mass_flow_kg_s']:.4g} g/s "
+              f"({iso['deviation_pct']:+.1f} %), Fanno (adiabatic) {1e3 * fan['mass_flow_kg_s']:.4g} g/s "
+              f"({fan['deviation_pct']:+.1f} %)")
     for p in files:
         print(f"wrote {p}")
     return 0

@@ -10,9 +10,10 @@ import warnings
 from pathlib import Path
 
 from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
+from sensor.cli.progress import counting
 from sensor.errors import SensorInputError
 
-STUDIES = ("observer", "controllers", "sensor")
+STUDIES = ("observer", "controllers", "plant-physics", "sensor")
 MAX_DURATION_S = 3600.0   # simulated time of one run; the stored samples are bounded again by simulate
 
 
@@ -49,7 +50,17 @@ def register(subparsers) -> None:
     p.add_argument("--segments", type=int, default=20, metavar="N", help="segments per line (default 20)")
     p.add_argument("--duration", type=float, default=None, metavar="S",
                    help="simulated time, s (default 30 s or 25 periods, whichever is longer: long enough to settle)")
-    p.add_argument("--study", default=None, metavar="NAME", help="observer | controllers | sensor: run a whole study")
+    p.add_argument("--stiction", type=float, default=0.0, metavar="N",
+                   help="static friction F_s of the piston, N, with the Stribeck curve (default 0; the thesis "
+                        "measured 0.25 N)")
+    p.add_argument("--coulomb", type=float, default=None, metavar="N",
+                   help="sliding (Coulomb) friction F_c of the piston, N (default 0.05)")
+    p.add_argument("--spool-bandwidth", type=float, default=math.inf, metavar="HZ",
+                   help="first-order spool bandwidth of the valve, Hz (default: ideal spool, as the thesis)")
+    p.add_argument("--energy", action="store_true",
+                   help="chamber energy equation with wall heat transfer instead of isothermal eq 15")
+    p.add_argument("--study", default=None, metavar="NAME",
+                   help="observer | controllers | plant-physics | sensor: run a whole study")
     add_output_arguments(p, "plots and tables")
     p.add_argument("--no-plots", action="store_true", help="do not write plots")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -59,10 +70,11 @@ def register(subparsers) -> None:
 
 def _setup(args):
     from sensor.pneumatic.controllers import CONTROLLERS, MAX_REFERENCE_N
-    from sensor.pneumatic.cylinder import spring_contact
+    from sensor.pneumatic.cylinder import Cylinder, spring_contact
+    from sensor.pneumatic.dacm_sensor import DacmForceSensor, sensor_reference, series_spring
+    from sensor.pneumatic.experiment import Setup, settling_duration_s
     from sensor.pneumatic.lines import MAX_LENGTH_M
     from sensor.pneumatic.observer import OBSERVER_KINDS
-    from sensor.pneumatic.studies import DacmForceSensor, Setup, sensor_reference, series_spring, settling_duration_s
 
     if args.controller not in CONTROLLERS:
         raise SensorInputError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")
@@ -88,8 +100,27 @@ def _setup(args):
                   amplitude_N=amp if args.amplitude is None else args.amplitude,
                   offset_N=off if args.offset is None else args.offset, line_length_m=args.line_length,
                   segments=args.segments, valve=valve,
-                  duration_s=settling_duration_s(args.reference) if args.duration is None else args.duration, **kw)
+                  duration_s=settling_duration_s(args.reference) if args.duration is None else args.duration,
+                  **_physics(args, Cylinder.coulomb_N), **kw)
     return setup, notes
+
+
+def _physics(args, default_coulomb_N: float) -> dict:
+    """The Setup fields of --stiction, --coulomb, --spool-bandwidth and --energy (checked there;
+    the flags' names in the messages)."""
+    from sensor.pneumatic.experiment import MAX_FRICTION_N
+
+    coulomb = default_coulomb_N if args.coulomb is None else args.coulomb
+    for flag, value in (("--stiction", args.stiction), ("--coulomb", coulomb)):
+        if not (math.isfinite(value) and 0 <= value <= MAX_FRICTION_N):
+            raise SensorInputError(f"{flag} {value!r}: must be a finite force in [0, {MAX_FRICTION_N:g}] N")
+    if 0 < args.stiction < coulomb:
+        raise SensorInputError(f"--stiction {args.stiction!r}: must be 0 (no stick-slip) or >= the Coulomb friction "
+                               f"{coulomb:g} N")
+    if not (args.spool_bandwidth > 0 and not math.isnan(args.spool_bandwidth)):
+        raise SensorInputError(f"--spool-bandwidth {args.spool_bandwidth!r}: must be a positive number of Hz")
+    return {"stiction_N": args.stiction, "coulomb_N": coulomb, "spool_bandwidth_Hz": args.spool_bandwidth,
+            "energy": bool(args.energy)}
 
 
 def run(args) -> int:
@@ -104,6 +135,13 @@ def run(args) -> int:
     if args.duration is not None and not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
         raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number <= "
                                f"{MAX_DURATION_S:g} (s)")
+    from sensor.pneumatic.cylinder import Cylinder
+
+    physics = _physics(args, Cylinder.coulomb_N)
+    if args.study and (physics["stiction_N"] or args.coulomb is not None or physics["energy"]
+                       or math.isfinite(physics["spool_bandwidth_Hz"])):
+        raise SensorInputError("--stiction, --coulomb, --spool-bandwidth and --energy: apply to a single run, not "
+                               "to --study (--study plant-physics varies them itself)")
     if not args.no_plots or args.study:
         names = ([f"loop-{args.study}.md", *(p.name for p in args.out.glob(f"loop-{args.study}*.png"))]
                  if args.study else ["loop.png"])
@@ -124,18 +162,21 @@ def run(args) -> int:
 def _run_one(args) -> dict:
     from geometry.atomic import save_figure
     from sensor.pneumatic.plots import loop_figure
-    from sensor.pneumatic.studies import console_progress, metrics
-    from sensor.pneumatic.studies import run as run_experiment
+    from sensor.pneumatic.experiment import run as run_experiment
+    from sensor.pneumatic.loop_metrics import metrics
 
     setup, notes = _setup(args)
     for note in notes:
         print(f"dacm loop: {note}", file=sys.stderr)
-    with console_progress("loop", args.quiet) as bar:
-        ds = run_experiment(setup, progress=None if bar is None else lambda k, n: bar(k, n, "control periods"))
+    with counting("loop", args.quiet) as bar:
+        ds = run_experiment(setup, progress=lambda k, n: bar(k, n, "control periods"))
     m = metrics(ds, setup.ref)
     result = {"controller": setup.controller, "observer": setup.observer, "reference": setup.reference,
               "amplitude_N": setup.amplitude_N, "offset_N": setup.offset_N, "line_length_m": setup.line_length_m,
               "valve": setup.valve, "sensor": args.sensor or "load cell", "duration_s": setup.duration_s,
+              "stiction_N": setup.stiction_N, "coulomb_N": setup.coulomb_N,
+              "spool_bandwidth_Hz": None if math.isinf(setup.spool_bandwidth_Hz) else setup.spool_bandwidth_Hz,
+              "energy": setup.energy,
               "gains": json.loads(ds.attrs["gains"]), **m}
     if not args.no_plots:
         result["plot"] = str(save_figure(loop_figure(ds, setup), args.out / "loop.png"))
@@ -145,7 +186,7 @@ def _run_one(args) -> dict:
         if result["gains"]:
             print("  gains (section 5.4.2, from the line): " + ", ".join(f"{k} {v:.4g}" for k, v in result["gains"].items()))
         print(f"  force-control MSE         {m['force_mse_N2']:10.3f} N^2   (window {m['window_s'][0]:.2f}-"
-              f"{m['window_s'][1]:.2f} s, settled: {'yes' if m['settled'] else 'NO, run longer'})")
+              f"{m['window_s'][1]:.2f} s, {_status_line(m)})")
         print(f"  pressure MSE (eq 44)      {m['pressure_mse_kPa2']:10.2f} kPa^2 ({setup.observer} estimate)")
         print(f"  valve-port pressure MSE   {m['valve_pressure_mse_kPa2']:10.2f} kPa^2")
         if "virtual_input_mse_N2" in m:
@@ -156,30 +197,47 @@ def _run_one(args) -> dict:
     return result
 
 
+def _status_line(m: dict) -> str:
+    """The run's status for the console: settled, the limit cycle with its frequency and
+    amplitude, or unsettled with the advice."""
+    if m["limit_cycle"]:
+        return f"limit cycle at {m['limit_cycle_hz']:.3g} Hz, amplitude {m['limit_cycle_amplitude_N']:.3g} N"
+    return "settled" if m["settled"] else "NOT settled, run longer"
+
+
 def _run_study(args) -> dict:
     from geometry.atomic import atomic_path
     from sensor.pneumatic import plots
     from sensor.pneumatic import studies as st
+    from sensor.pneumatic import verdicts as vd
+    from sensor.pneumatic.loop_metrics import SETTLING_RULE
 
     kw = {"segments": args.segments, **({} if args.duration is None else {"duration_s": args.duration})}
-    with st.console_progress(f"loop --study {args.study}", args.quiet) as progress:
+    with counting(f"loop --study {args.study}", args.quiet) as progress:
         if args.study == "observer":
             res = st.observer_study(progress=progress, **kw)
-            text, out = st.observer_tables(res), {"experiments": res["experiments"], "switch_on": res["switch_on"],
-                                                   "verdicts": st.observer_verdicts(res)}
+            text, out = vd.observer_tables(res), {"experiments": res["experiments"], "switch_on": res["switch_on"],
+                                                   "verdicts": vd.observer_verdicts(res)}
             figs = {"loop-observer-phase.png": plots.observer_phase_figure, "loop-observer-smc.png": plots.observer_smc_figure}
         elif args.study == "controllers":
             keep = {(5.0, "sine:1Hz", k) for k in ("line_model_thesis", "line_model_damped")}
             res = st.controller_study(keep_runs=keep, progress=progress, **kw)
-            text, out = st.controller_tables(res), {"rows": res["rows"], "verdicts": {
-                k: st.controller_verdicts(res, k) for k in ("line_model_thesis", "line_model_damped")}}
+            text, out = vd.controller_tables(res), {"rows": res["rows"], "tuning": res["tuning"], "verdicts": {
+                k: vd.controller_verdicts(res, k, smc) for k, smc in (("line_model_thesis", "smc"),
+                                                                      ("line_model_thesis_rule", "smc_rule"),
+                                                                      ("line_model_damped", "smc_rule"))}}
             figs = {"loop-controllers-mse.png": plots.controller_mse_figure,
                     "loop-controllers-virtual-input.png": plots.controller_virtual_input_figure}
+        elif args.study == "plant-physics":
+            res = st.plant_physics_study(progress=progress, **kw)
+            text, out = vd.plant_physics_tables(res), {"variants": res["variants"], "rows": res["rows"],
+                                                       "tuning": res["tuning"]}
+            figs = {}
         else:
             res = st.sensor_study(progress=progress, **kw)
-            text, out = st.sensor_tables(res), {"rows": res["rows"]}
+            text, out = vd.sensor_tables(res), {"rows": res["rows"]}
             figs = {"loop-sensor.png": plots.sensor_figure}
-    out["settling_rule"] = st.SETTLING_RULE
+    out["settling_rule"] = SETTLING_RULE
     md = args.out / f"loop-{args.study}.md"
     with atomic_path(md) as tmp:
         Path(tmp).write_text(text)

@@ -13,7 +13,7 @@ from geometry.provenance import version
 
 #: Command modules, in the order ``dacm --help`` lists them.
 COMMANDS = ("export", "check", "draw", "solve", "verify", "render", "sweep", "design", "sensor", "measure", "report",
-            "snr", "line", "loop")
+            "snr", "line", "loop", "artefact")
 
 
 def did_you_mean(word: str, choices) -> str:

@@ -39,6 +39,13 @@ def busy(description: str, quiet: bool = False):
         yield lambda label: bar.update(task, label=label)
 
 
+@contextlib.contextmanager
+def counting(description: str, quiet: bool = False):
+    """:func:`busy` for work that reports ``progress(done, total, label)`` (the pneumatic studies)."""
+    with busy(description, quiet) as step:
+        yield lambda done, total, label: step(f"{done}/{total} {label}")
+
+
 class CountingBar:
     """A rich bar of items done, their rate and the time left, for work that reports its
     items through ``start(total)``, ``advance(n)`` and ``stop()`` (e.g. ``run_sweep``)."""

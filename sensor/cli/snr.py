@@ -109,10 +109,10 @@ def _check_mode(args) -> None:
 def _measure(name, path_a, path_b, args, options):
     """Measure; boxes refused on a single slice are drawn in --figure before the error."""
     from mri.errors import BoxOutsidePhantomError
-    from mri.study import figure_panel, measure_files
+    from mri.study import figure_panel, measure_pair
 
     try:
-        return measure_files(name, path_a, path_b, options)
+        return measure_pair(path_a, path_b, options, name)
     except BoxOutsidePhantomError as exc:
         if not args.figure:
             raise
@@ -161,8 +161,6 @@ def run(args) -> int:
 
     path_b = args.images[1] if len(args.images) == 2 else None
     pair = _measure("pair" if path_b else "image", args.images[0], path_b, args, options)
-    for warning in pair.warnings:
-        print(f"dacm snr: warning: {warning}", file=sys.stderr)
     panels = [figure_panel(pair.name, pair.a, pair.b, pair.specs, pair.background_specs,
                            args.figure_slice)] if args.figure or args.report else []
     _write_outputs(args, [pair], panels)
@@ -172,6 +170,8 @@ def run(args) -> int:
         from mri.study import pair_text
 
         print("\n".join(pair_text(pair)))
+        for warning in pair.warnings:  # text mode, after the outputs (an error stays alone)
+            print(f"dacm snr: warning: {warning}", file=sys.stderr)
     return 0
 
 
@@ -189,12 +189,6 @@ def _run_conditions(args, options) -> int:
         pair = _measure(name, b1, b2, args, options)
         warnings = check_pair(reference.a, pair.a, ("reference", name))
         conditions.append((pair, warnings, difference_percent(reference.a.pixels, pair.a.pixels)))
-    for pair in [reference] + [c[0] for c in conditions]:
-        for warning in pair.warnings:
-            print(f"dacm snr: warning: {pair.name}: {warning}", file=sys.stderr)
-    for pair, warnings, _ in conditions:
-        for warning in warnings:
-            print(f"dacm snr: warning: reference vs {pair.name}: {warning}", file=sys.stderr)
     panels = [figure_panel(f"reference vs {p.name}", reference.a, p.a, p.specs, p.background_specs,
                            args.figure_slice) for p, _, _ in conditions] if args.figure or args.report else []
     _write_outputs(args, [reference] + [c[0] for c in conditions], panels, (reference, conditions))
@@ -202,4 +196,10 @@ def _run_conditions(args, options) -> int:
         print_json(comparison_json(reference, conditions), _written(args))
     else:
         print("\n".join(comparison_text(reference, conditions)))
+        for pair in [reference] + [c[0] for c in conditions]:  # text mode, after the outputs
+            for warning in pair.warnings:
+                print(f"dacm snr: warning: {pair.name}: {warning}", file=sys.stderr)
+        for pair, warnings, _ in conditions:
+            for warning in warnings:
+                print(f"dacm snr: warning: reference vs {pair.name}: {warning}", file=sys.stderr)
     return 0

@@ -67,7 +67,8 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
     :class:`~sensor.errors.ResourceNote`); 1 runs serially in this process. ``scheduler`` is
     a Dask distributed scheduler address. With ``resume`` the cells of an existing dataset
     at ``dataset_path`` (same spec) are reused. The dataset is checkpointed (atomically)
-    every ``checkpoint_s`` seconds and when the sweep is stopped, so it can be resumed.
+    every ``checkpoint_s`` seconds, or 20 times as long as the last save took if that is
+    longer, and when the sweep is stopped, so it can be resumed.
     """
     check_run_options(workers, scheduler, cluster_timeout_s)
     if dataset_path is not None:
@@ -80,7 +81,7 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
     done = 0
     if progress is not None:
         progress.start(n_cells)
-    last = time.monotonic()
+    last, interval = time.monotonic(), checkpoint_s
     try:
         with contextlib.closing(_execute(spec, todo, workers, scheduler, cluster_timeout_s)) as rows:
             for row in rows:
@@ -88,9 +89,12 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
                 done += int(row["computed"].sum())
                 if progress is not None:
                     progress.advance(int(row["computed"].sum()))
-                if dataset_path is not None and time.monotonic() - last > checkpoint_s:
+                if dataset_path is not None and time.monotonic() - last > interval:
+                    start = time.monotonic()
                     save_dataset(ds, dataset_path)
                     last = time.monotonic()
+                    # a save grows with the grid (about 40 s at 10^6 cells): at most 1/20 of the run
+                    interval = max(checkpoint_s, 20 * (last - start))
     except (KeyboardInterrupt, ClusterLostError) as exc:
         where = _save_checkpoint(ds, dataset_path, done)
         what = (f"after {done} of {n_cells} cells{where}; finish with --resume" if done else
@@ -264,8 +268,9 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
         raise SweepError(f"--scheduler = {address!r}: not a Dask scheduler address "
                          f"({' '.join(str(exc).split())[:120]})") from None
     try:
-        futures = [client.submit(solve_row, spec, h, i, m, pure=False) for h, i, m in todo]
-        pending = as_completed(futures)
+        # only as_completed holds the futures: a row's result is released on the cluster
+        # once it is merged, so the workers' memory does not grow with the grid
+        pending = as_completed([client.submit(solve_row, spec, h, i, m, pure=False) for h, i, m in todo])
         healthy = time.monotonic()
         while not pending.is_empty():
             batch = pending.next_batch(block=False)

@@ -1,108 +1,122 @@
-"""Range-targeted design (DESIGN section 13): the body of a given force range with the
-lowest predicted hysteresis, by differential evolution (:func:`scipy.optimize.differential_evolution`).
+"""Range-targeted design (DESIGN section 13): the body of a given force range with the lowest
+predicted hysteresis, within every feasibility rule, the hinge bounds and the allowable stress.
 
-Variables: phi1, phi2 (the proposed body) and the in-plane thickness of each mirror-symmetric
-hinge pair of Figure 48, (1, 8), (2, 7), (3, 6), (4, 5), (9, 12), (10, 11) (the basis body:
-phi1 and the first four pairs). The range constraint is met exactly rather than penalised:
-the optimiser moves the pairs' thickness *ratios*, and every candidate's thicknesses are
-scaled together until its range (input force at the target output travel) is within
-``RANGE_TOLERANCE`` of the target (range grows about as t^3: a secant iteration in log-log,
-3-4 solves). Every candidate is then held to every feasibility rule of
-:func:`geometry.checks.check_design`, the hinge bounds and the allowable hinge stress at
-full scale (:func:`sensor.mechanics.stress.stress_check`); one that breaks a rule scores
-``PENALTY`` plus its violation, so the population is drawn to the feasible region.
+Variables: phi1, phi2 (the proposed body; phi1 alone for the basis) and the log in-plane
+thickness of each group of hinges sharing one thickness (default the mirror-symmetric pairs of
+Figure 48: (1, 8), (2, 7), (3, 6), (4, 5), (9, 12), (10, 11); the basis body the first four),
+scaled to the unit box.
 
-Objective: the predicted hysteresis H (strain-energy law, section 6.2.5); candidates whose H
-is within ``TIE`` of the best are ranked by resolution (:mod:`sensor.design_space.resolution`).
-With ``robust_sd_mm`` it maximises instead the 10th percentile of quality (sensitivity / H)
-over ``draws`` Monte-Carlo draws of every hinge thickness (normal, SD in mm; the same draws
-for every candidate, from ``seed``), subject to at least ``min_yield`` of the draws being
-cuttable (every used hinge >= min_feature_mm).
+Method: multi-start SLSQP (:func:`scipy.optimize.minimize`, method "SLSQP") on
+
+    minimise log SE  (H = h SE, the strain-energy law of section 6.2.5)
+    subject to  log(range / N) = 0                     (range: input force at the travel)
+                utilisation <= 1 - STRESS_SLACK         (peak hinge stress / allowable)
+                phi2 <= phi2 edge of the feasible angles (:class:`AngleDomain`)
+                hinge_min <= t <= hinge_max             (bounds)
+
+with forward-difference gradients whose perturbed bodies are solved together in one batch
+(:func:`sensor.mechanics.solver.solve_batch`). Starts: a Latin hypercube over the variables
+(seeded), plus the best equal-hinge body of the range on a grid of angles (so the answer is
+never worse than an equal-hinge cell), each first scaled to the range by thickening or thinning
+every hinge together. The answer: the best converged candidates projected onto their active
+hinge bounds, matched to the range again with the free hinges, written values rounded inward
+(angles 0.01 deg, hinges 0.1 um) and checked again as written (:func:`accept`).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import differential_evolution, minimize
+from scipy.optimize import minimize
+from scipy.stats import qmc
 
 from geometry.checks import check_design, phi1_limit_deg
-from geometry.params import Design, design_from_dict
+from geometry.errors import GeometryError
+from geometry.params import Design, design_from_dict, design_to_dict
+from geometry.process import WATER_JET, Process
 from geometry.topology import build_beam_model
-from sensor.design_space.resolution import resolution_N
 from sensor.errors import DesignError, SolverError
 from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw
 from sensor.mechanics.qualifiers import qualify
 from sensor.mechanics.solver import SolverOptions, solve_batch
-from sensor.mechanics.stress import stress_check
+from sensor.mechanics.stress import hinge_stresses, stress_check
 from sensor.validation import Number
 
+#: Default thickest hinge, as a fraction of the link width (0.8 mm of 2): a hinge is a neck of
+#: its link. Thicker necks' roots poke out of the bodies they join: the cut profile leaves the
+#: footprint by up to 0.06 mm at 1.0 mm and 0.1 mm at 0.9 mm, never at 0.8 mm (phi1 3.7-32.8
+#: deg, phi2 5-20 deg and the basis body), which geometry.checks does not see.
+HINGE_MAX_PER_LINK = 0.4
 #: Mirror-symmetric hinge pairs of Figure 48 (hinge numbers; DESIGN section 3).
 PAIRS = ((1, 8), (2, 7), (3, 6), (4, 5), (9, 12), (10, 11))
 BASIS_PAIRS = PAIRS[:4]
-#: Relative range error the thickness scaling stops at for the answer (the constraint is
-#: 1 %), and while searching: there H and the stress utilisation are carried to the target
-#: range by their scaling at fixed shape (H ~ SE ~ range / A, stress ~ t ~ range^(1/3)),
-#: which saves a solve or two per candidate; the answer is matched again to RANGE_TOLERANCE.
-RANGE_TOLERANCE = 1e-3
-SEARCH_TOLERANCE = 0.03
-RANGE_ITERATIONS = 8
-#: Score of a candidate that breaks a rule: PENALTY + its violation (H is below 1).
-PENALTY = 10.0
-#: Candidates within this relative H of the best are ranked by resolution; the best
-#: FINALISTS of the search are matched to the range exactly before the choice.
-TIE = 1e-3
-FINALISTS = 8
-#: A range this far outside :func:`reachable_range`'s estimate (uniform hinges on a coarse
-#: grid of angles) is refused before the search: unequal hinges reach further.
-REACH_MARGIN = 3.0
-#: Angle bounds (deg): phi1 up to the side links' limit, phi2 as the sweep's default grid.
+#: The answer's range is the target within RANGE_TOLERANCE (the contract is 1 %; the
+#: search matches it to 1e-6 and the written, rounded values move it by about 1e-4).
+RANGE_TOLERANCE = 0.01
+#: The search keeps the stress utilisation at most 1 - STRESS_SLACK, so the rounding of the
+#: written values (0.1 um on a hinge: under 0.1 % of stress) cannot push it over 1.
+STRESS_SLACK = 0.005
+#: Quanta of the written values: angles (deg) and hinge thicknesses (mm).
+ANGLE_QUANTUM, THICKNESS_QUANTUM = 0.01, 1e-4
+#: Angle bounds (deg): phi1 from PHI1_MIN up to the side links' limit, phi2 over PHI2_BOUNDS,
+#: both cut to the feasible angles by :class:`AngleDomain`.
 PHI1_MIN, PHI2_BOUNDS = 2.0, (2.0, 60.0)
+#: Forward-difference step in the unit box (the solves are converged to 1e-9: the FD
+#: gradients agree with central differences of step 1e-8 to 1e-5 relative), SLSQP's limits,
+#: and the objective's scale: SLSQP's first step is the objective's gradient in the unit box
+#: (its first Hessian is the identity), of order 1-5 unscaled, which leaves the region where
+#: the range constraint's linearisation holds; scaled, the first step is a few % of the box.
+FD_STEP = 1e-6
+SLSQP_ITERATIONS, SLSQP_FTOL, OBJECTIVE_SCALE = 100, 1e-8, 0.03
+#: Latin-hypercube starts of the search, and finalists carried to the acceptance.
+STARTS, FINALISTS = 12, 6
+#: A failed solve's objective/constraint values (far from feasible, finite for SLSQP).
+FAILED = 10.0
 
 _RANGE = Number(0.0, 1e4, lo_open=True, unit="N")
 _THICKNESS = Number(0.0, 10.0, lo_open=True, unit="mm")
-_YIELD = Number(0.0, 1.0)
-_SD = Number(0.0, 1.0, unit="mm")
+#: What building or solving a candidate may raise: a geometry the builder refuses, a solve
+#: that does not finish. Anything else is a bug and propagates.
+MODEL_ERRORS = (GeometryError, SolverError)
 
 
 @dataclass(frozen=True)
 class DesignProblem:
     """A range-targeted design problem (mm, N). ``body``: "proposed" or "basis";
     ``pairs``: the hinge groups that share one thickness (default the mirror pairs; one
-    group of every hinge gives the reduced problem of the angles alone); ``base``: other
-    Design fields; ``hinge_min_mm`` defaults to the base design's ``min_feature_mm`` and
-    ``hinge_max_mm`` to its ``link_width_mm`` (a hinge is a neck of its link)."""
+    group of every hinge gives equal hinges); ``base``: other Design fields; ``process``:
+    the cutting process, whose ``min_drawn_hinge_mm`` is the default ``hinge_min_mm``;
+    ``hinge_max_mm`` defaults to the link width (a hinge is a neck of its link)."""
 
     range_N: float
-    target_output_mm: float = 1.0
+    travel_mm: float = 1.0
     body: str = "proposed"
     hinge_min_mm: float | None = None
     hinge_max_mm: float | None = None
     pairs: tuple[tuple[int, ...], ...] | None = None
-    robust_sd_mm: float = 0.0
-    min_yield: float = 0.9
-    draws: int = 32
     seed: int = 0
     base: dict = field(default_factory=dict)
+    process: Process = WATER_JET
     law: StrainEnergyLaw = DEFAULT_LAW
 
     def __post_init__(self):
         _RANGE.check("range_N", self.range_N, DesignError)
         if self.body not in ("proposed", "basis"):
             raise DesignError(f"body = {self.body!r}: must be 'proposed' or 'basis'")
-        ref = self.reference()
+        ref = self.reference
         Number(0.0, ref.height_mm, lo_open=True, unit="mm, at most the body's height").check(
-            "target_output_mm", self.target_output_mm, DesignError)
-        if not self.target_output_mm < ref.fiber_clearance_mm:
-            raise DesignError(f"target_output_mm = {self.target_output_mm:g}: must be below fiber_clearance_mm = "
+            "travel_mm", self.travel_mm, DesignError)
+        if not self.travel_mm < ref.fiber_clearance_mm:
+            raise DesignError(f"travel_mm = {self.travel_mm:g}: must be below fiber_clearance_mm = "
                               f"{ref.fiber_clearance_mm:g} mm (the mirror must not touch the fiber)")
         if self.hinge_min_mm is None:
-            object.__setattr__(self, "hinge_min_mm", ref.min_feature_mm)
+            object.__setattr__(self, "hinge_min_mm", self.process.min_drawn_hinge_mm)
         if self.hinge_max_mm is None:
-            object.__setattr__(self, "hinge_max_mm", ref.link_width_mm)
+            object.__setattr__(self, "hinge_max_mm", HINGE_MAX_PER_LINK * ref.link_width_mm)
         for name in ("hinge_min_mm", "hinge_max_mm"):
             _THICKNESS.check(name, getattr(self, name), DesignError)
         if self.hinge_min_mm < ref.min_feature_mm:
@@ -111,19 +125,17 @@ class DesignProblem:
         if not self.hinge_max_mm > self.hinge_min_mm:
             raise DesignError(f"hinge_max_mm = {self.hinge_max_mm:g}: must exceed hinge_min_mm = "
                               f"{self.hinge_min_mm:g} mm")
-        _SD.check("robust_sd_mm", self.robust_sd_mm, DesignError)
-        _YIELD.check("min_yield", self.min_yield, DesignError)
-        Number(2, 10_000, integer=True).check("draws", self.draws, DesignError)
         Number(0, 2**32 - 1, integer=True).check("seed", self.seed, DesignError)
         if self.pairs is None:
             object.__setattr__(self, "pairs", BASIS_PAIRS if self.body == "basis" else PAIRS)
-        used = set(range(1, 9 if self.body == "basis" else 13))
-        if sorted(h for g in self.pairs for h in g) != sorted(used):
+        used = ref.used_hinges
+        if sorted(h for g in self.pairs for h in g) != list(used):
             raise DesignError(f"pairs = {self.pairs!r}: must group each used hinge "
                               f"({min(used)}-{max(used)}) exactly once")
 
+    @functools.cached_property
     def reference(self) -> Design:
-        """The base design (angles and hinges to be chosen)."""
+        """The base design (angles and hinges to be chosen), built once."""
         base = {k: v for k, v in self.base.items() if k not in ("phi1_deg", "phi2_deg", "hinge_set",
                                                                 "hinge_thickness_mm", "name", "body")}
         return design_from_dict({**base, "phi1_deg": 20.0, "phi2_deg": None if self.body == "basis" else 30.0,
@@ -133,257 +145,461 @@ class DesignProblem:
     def n_angles(self) -> int:
         return 1 if self.body == "basis" else 2
 
-    def bounds(self) -> list[tuple[float, float]]:
-        """Bounds of the variables: the angles (deg), then log(t_k / t_0) of every pair but the first."""
-        span = math.log(self.hinge_max_mm / self.hinge_min_mm)
-        angles = [(PHI1_MIN, phi1_limit_deg(self.reference()))] + ([PHI2_BOUNDS] if self.body == "proposed" else [])
-        return angles + [(-span, span)] * (len(self.pairs) - 1)
+    @functools.cached_property
+    def domain(self) -> "AngleDomain":
+        return AngleDomain.of(self)
 
-    def design(self, x, scale_mm: float, name: str = "optimised") -> Design:
-        """The design of variables ``x`` with the first pair ``scale_mm`` thick."""
-        ref = self.reference()
-        t = np.array(ref.hinge_thickness_mm)
-        ratios = np.exp(np.concatenate([[0.0], np.asarray(x[self.n_angles:], dtype=float)]))
-        for group, r in zip(self.pairs, ratios):
+    @functools.cached_property
+    def lower(self) -> np.ndarray:
+        """Lower bounds of the variables: angles (deg), then log thickness (log mm)."""
+        return np.array(self.domain.lower + [math.log(self.hinge_min_mm)] * len(self.pairs))
+
+    @functools.cached_property
+    def upper(self) -> np.ndarray:
+        return np.array(self.domain.upper + [math.log(self.hinge_max_mm)] * len(self.pairs))
+
+    def to_unit(self, z) -> np.ndarray:
+        return (np.asarray(z, dtype=float) - self.lower) / (self.upper - self.lower)
+
+    def from_unit(self, u) -> np.ndarray:
+        return self.lower + np.asarray(u, dtype=float) * (self.upper - self.lower)
+
+    def design(self, z, name: str = "optimised") -> Design:
+        """The design of variables ``z`` (angles in deg, then log thickness of each group)."""
+        ref = self.reference
+        t = list(ref.hinge_thickness_mm)
+        for group, lt in zip(self.pairs, z[self.n_angles:]):
             for h in group:
-                t[h - 1] = scale_mm * r
-        if self.body == "basis":
-            t[8:] = ref.hinge_thickness_mm[8:]
-        return ref.replace(phi1_deg=float(x[0]), phi2_deg=None if self.body == "basis" else float(x[1]),
-                           hinge_thickness_mm=tuple(float(v) for v in t), name=name)
+                t[h - 1] = float(math.exp(lt))
+        return ref.replace(phi1_deg=float(z[0]), phi2_deg=None if self.body == "basis" else float(z[1]),
+                           hinge_thickness_mm=tuple(t), name=name)
+
+    def variables(self, design: Design) -> np.ndarray:
+        """The variables of a design (the first hinge of each group gives its thickness)."""
+        angles = [design.phi1_deg] + ([] if self.body == "basis" else [design.phi2_deg])
+        return np.array(angles + [math.log(design.hinge_thickness_mm[g[0] - 1]) for g in self.pairs])
 
 
 @dataclass(frozen=True)
-class Candidate:
-    """One evaluated candidate: its variables, the range-matched design, and the score."""
+class AngleDomain:
+    """The feasible angles (deg) of a problem's body with every hinge at ``hinge_max_mm``
+    (thinner hinges only widen the gaps): phi1 in [lower[0], upper[0]]; for the proposed body
+    phi2 in [PHI2_BOUNDS[0], ``phi2_edge(phi1)``], the edge found by bisection on
+    :func:`geometry.checks.check_design` at every degree of phi1 and interpolated linearly
+    (0.05 deg inside the found edge)."""
 
-    x: tuple[float, ...]
+    lower: list
+    upper: list
+    phi1_grid: tuple = ()
+    phi2_edges: tuple = ()
+
+    @classmethod
+    def of(cls, problem: DesignProblem) -> "AngleDomain":
+        ref = problem.reference.replace(hinge_thickness_mm=(problem.hinge_max_mm,) * 12)
+        hi1 = phi1_limit_deg(ref) - 0.05
+        phi2_lo = PHI2_BOUNDS[0]
+
+        def ok(p1, p2=None):
+            return check_design(ref.replace(phi1_deg=p1, phi2_deg=p2)).feasible
+
+        probe = None if problem.body == "basis" else phi2_lo
+        lo1 = _bisect(lambda p1: ok(p1, probe), PHI1_MIN, hi1, feasible_high=True) + 0.05
+        if problem.body == "basis":
+            return cls([lo1], [hi1])
+        grid = tuple(np.linspace(lo1, hi1, max(2, int(math.ceil(hi1 - lo1)) + 1)))
+        edges = tuple(_bisect(lambda p2: ok(p1, p2), phi2_lo, PHI2_BOUNDS[1], feasible_high=False) - 0.05
+                      for p1 in grid)
+        return cls([lo1, phi2_lo], [hi1, max(edges)], grid, edges)
+
+    def phi2_edge(self, phi1) -> float:
+        return float(np.interp(phi1, self.phi1_grid, self.phi2_edges))
+
+
+def _bisect(feasible, a: float, b: float, feasible_high: bool, steps: int = 12) -> float:
+    """The edge (to (b - a) / 2^steps) between the infeasible and feasible part of [a, b]:
+    feasible above it (``feasible_high``) or below it; an end if the interval is all one."""
+    if feasible(a) == feasible(b):
+        return a if feasible_high else b
+    for _ in range(steps):
+        m = 0.5 * (a + b)
+        if feasible(m) == feasible_high:
+            b = m
+        else:
+            a = m
+    return b if feasible_high else a
+
+
+# --- evaluation -----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Point:
+    """One evaluated body: its variables, design, log range error, log strain energy, each
+    used hinge's stress utilisation (peak / allowable; FAILED for a failed solve) and the
+    phi2 margin to the angle domain's edge (deg; inf for the basis)."""
+
+    z: tuple
     design: Design | None
-    score: float
-    range_N: float = math.nan
-    hysteresis: float = math.nan
-    resolution_N: float = math.nan
-    stress_utilisation: float = math.nan
-    quality_p10_mm_per_N: float = math.nan
-    yield_fraction: float = math.nan
+    log_range_error: float = FAILED
+    log_se: float = FAILED
+    hinge_utilisation: tuple = ()
+    phi2_margin: float = 0.0
     reason: str = ""
 
+    @property
+    def utilisation(self) -> float:
+        """The largest hinge stress utilisation (FAILED for a failed solve)."""
+        return max(self.hinge_utilisation) if self.hinge_utilisation else FAILED
 
-def _used(design: Design) -> np.ndarray:
-    return np.array(design.hinge_thickness_mm[:8] if design.is_basis else design.hinge_thickness_mm)
+    @property
+    def ok(self) -> bool:
+        return not self.reason
 
 
-def _match_range(problem: DesignProblem, X: np.ndarray, tolerance: float) -> list[tuple[Design | None, object, str]]:
-    """Scale each candidate's thicknesses until its range is within ``tolerance`` of the
-    target: per row of X, (design, solve result, '' or why it failed)."""
-    n = len(X)
-    ref_t = math.sqrt(problem.hinge_min_mm * problem.hinge_max_mm) / 2
-    scale = np.full(n, ref_t)
-    prev = [None] * n                     # (log scale, log range) of the last solve
-    out: list = [(None, None, "range not matched")] * n
-    alive = list(range(n))
-    opts = SolverOptions()
-    for _ in range(RANGE_ITERATIONS):
-        if not alive:
-            break
-        designs, models, keep = [], [], []
-        for k in alive:
-            try:
-                d = problem.design(X[k], scale[k])
-                models.append(build_beam_model(d))
-            except Exception as exc:      # a geometry the builder refuses is a failed candidate
-                out[k] = (None, None, f"geometry: {' '.join(str(exc).split())[:120]}")
-                continue
-            designs.append(d)
-            keep.append(k)
-        if not keep:
-            break
+def solve_designs(designs: list[Design], travel_mm: float):
+    """Build and solve designs of one body together: per design (model, result) or
+    (None, error message)."""
+    models, idx, out = [], [], [None] * len(designs)
+    for n, d in enumerate(designs):
+        if max(d.used_thickness_mm) > d.link_width_mm:   # a neck wider than its link: no body
+            out[n] = (None, f"geometry: a hinge of {max(d.used_thickness_mm):.4g} mm is thicker than the link "
+                            f"({d.link_width_mm:g} mm)")
+            continue
         try:
-            res, errs = solve_batch(models, target_output_mm=problem.target_output_mm, options=opts)
+            models.append(build_beam_model(d))
+            idx.append(n)
+        except MODEL_ERRORS as exc:
+            out[n] = (None, f"geometry: {' '.join(str(exc).split())[:160]}")
+    if models:
+        try:
+            res, errs = solve_batch(models, target_output_mm=travel_mm, options=SolverOptions())
         except SolverError as exc:
-            res, errs = [None] * len(keep), [exc] * len(keep)
-        alive = []
-        for k, d, r, e in zip(keep, designs, res, errs):
-            if r is None:
-                out[k] = (d, None, f"solver: {e}")
-                continue
-            lr, ls = math.log(r.input_force_N), math.log(scale[k])
-            err = lr - math.log(problem.range_N)
-            out[k] = (d, r, "")
-            if abs(err) <= math.log1p(tolerance):
-                continue
-            slope = 3.0 if prev[k] is None or prev[k][0] == ls else (lr - prev[k][1]) / (ls - prev[k][0])
-            slope = min(max(slope, 1.0), 5.0)
-            prev[k] = (ls, lr)
-            scale[k] = math.exp(ls - err / slope)
-            out[k] = (d, r, "range not matched")
-            alive.append(k)
+            res, errs = [None] * len(models), [exc] * len(models)
+        for n, m, r, e in zip(idx, models, res, errs):
+            out[n] = (m, r) if r is not None else (None, f"solver: {e}")
     return out
 
 
-def evaluate(problem: DesignProblem, X, tolerance: float = RANGE_TOLERANCE) -> list[Candidate]:
-    """Evaluate candidates (rows of X): range-matched within ``tolerance``, checked, scored
-    (pure: safe to run on any worker)."""
-    X = np.atleast_2d(np.asarray(X, dtype=float))
-    # the thicknesses scale together: their spread is the ratios' whatever the range, so a
-    # spread beyond hinge_max / hinge_min fails the hinge bounds without a solve
-    ratios = X[:, problem.n_angles:]
-    spread = np.ptp(np.concatenate([np.zeros((len(X), 1)), ratios], axis=1), axis=1)
-    excess = spread - math.log(problem.hinge_max_mm / problem.hinge_min_mm)
-    fits = np.flatnonzero(excess <= 0)
-    matched = dict(zip(fits, _match_range(problem, X[fits], tolerance)))
+def evaluate(problem: DesignProblem, Z) -> list[Point]:
+    """Evaluate bodies of variables Z (rows), solved together as one batch."""
+    Z = np.atleast_2d(np.asarray(Z, dtype=float))
+    designs = [problem.design(z) for z in Z]
     out = []
-    rng = np.random.default_rng(problem.seed)
-    z = rng.standard_normal((problem.draws, 12)) if problem.robust_sd_mm > 0 else None
-    for n, x in enumerate(X):
-        x = tuple(float(v) for v in x)
-        if n not in matched:
-            out.append(Candidate(x, None, PENALTY + 1.0 + min(excess[n], 1.0),
-                                 reason=f"hinge bounds: thickness ratio {math.exp(spread[n]):.2f} > "
-                                        f"hinge_max_mm / hinge_min_mm"))
+    for z, d, (m, r) in zip(Z, designs, solve_designs(designs, problem.travel_mm)):
+        margin = math.inf if problem.body == "basis" else problem.domain.phi2_edge(z[0]) - z[1]
+        if m is None:
+            out.append(Point(tuple(z), d, phi2_margin=margin, reason=r))
             continue
-        d, r, why = matched[n]
-        if why:
-            out.append(Candidate(x, d, PENALTY + 2.0, reason=why))
-            continue
-        q = qualify(r, problem.law)
-        to_target = problem.range_N / q.range_N          # 1 within the tolerance
-        t = _used(d) * to_target ** (1 / 3)
-        bound = max(problem.hinge_min_mm - t.min(), t.max() - problem.hinge_max_mm, 0.0)
-        fail = check_design(d).first_failure
-        util = stress_check(d, build_beam_model(d), r).utilisation * to_target ** (1 / 3)
-        common = dict(range_N=q.range_N, hysteresis=q.hysteresis * to_target, stress_utilisation=util,
-                      resolution_N=resolution_N(r.force_N, r.output_mm, d.fiber_clearance_mm) * to_target)
-        if bound > 0 or fail is not None or util > 1.0:
-            reason = (f"hinge bounds: thickness {t.min():.3f}-{t.max():.3f} mm" if bound > 0 else
-                      f"{fail.rule}: {fail.message}" if fail is not None else f"stress: {util:.3f} x allowable")
-            violation = bound / problem.hinge_min_mm + max(util - 1.0, 0.0) + (1.0 if fail is not None else 0.0)
-            out.append(Candidate(x, d, PENALTY + min(violation, 1.0), reason=reason, **common))
-            continue
-        if z is None:
-            out.append(Candidate(x, d, q.hysteresis, **common))
-            continue
-        p10, yld = _robust(problem, d, z)
-        score = -p10 if yld >= problem.min_yield and np.isfinite(p10) else PENALTY + (problem.min_yield - yld)
-        out.append(Candidate(x, d, score, quality_p10_mm_per_N=p10, yield_fraction=yld,
-                             reason="" if score < PENALTY else f"yield {yld:.2f} < min_yield", **common))
+        allow = d.material.allowable_stress_MPa
+        util = tuple(s.peak_MPa / allow for s in hinge_stresses(m, r).values())
+        out.append(Point(tuple(z), d, math.log(r.input_force_N / problem.range_N), math.log(r.strain_energy_mJ),
+                         util, margin))
     return out
 
 
-def _robust(problem: DesignProblem, d: Design, z: np.ndarray) -> tuple[float, float]:
-    """(10th percentile of quality over the draws that can be cut and solve, mm/N; the
-    fraction of draws that can be cut)."""
-    nominal = np.array(d.hinge_thickness_mm)
-    draws = nominal + problem.robust_sd_mm * z
-    used = slice(None, 8) if d.is_basis else slice(None)
-    cuttable = draws[:, used].min(axis=1) >= d.min_feature_mm
-    models = [build_beam_model(d.replace(hinge_thickness_mm=tuple(t))) for t in draws[cuttable]]
-    res, _ = solve_batch(models, target_output_mm=problem.target_output_mm) if models else ([], [])
-    qual = [qualify(r, problem.law).quality_mm_per_N for r in res if r is not None]
-    p10 = float(np.percentile(qual, 10)) if qual else math.nan
-    return p10, float(cuttable.mean())
+class _Local:
+    """The SLSQP functions of one problem in the unit box, cached: a point's values come from
+    one solve, its forward-difference gradient (asked for only at accepted iterates) from one
+    batch solve of its perturbations; ``points`` keeps every body evaluated and
+    ``solves`` counts the solves."""
+
+    def __init__(self, problem: DesignProblem, objective: str = "se"):
+        self.p, self.objective = problem, objective
+        self.values: dict[bytes, np.ndarray] = {}
+        self.grads: dict[bytes, np.ndarray] = {}
+        self.points: list[Point] = []
+        self.solves = 0
+
+    def _values(self, pt: Point) -> np.ndarray:
+        obj = {"se": pt.log_se, "min_range": pt.log_range_error, "max_range": -pt.log_range_error}[self.objective]
+        n = len(self.p.reference.used_hinges)
+        util = np.array(pt.hinge_utilisation) if pt.hinge_utilisation else np.full(n, FAILED)
+        return np.concatenate([[obj, pt.log_range_error,
+                                pt.phi2_margin / 10.0 if math.isfinite(pt.phi2_margin) else 1.0],
+                               math.log1p(-STRESS_SLACK) - np.log(np.maximum(util, 1e-9))])
+
+    def at(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        key = u.tobytes()
+        if key not in self.values:
+            pt = evaluate(self.p, self.p.from_unit(u)[None])[0]
+            self.points.append(pt)
+            self.solves += 1
+            self.values[key] = self._values(pt)
+        return self.values[key]
+
+    def grad(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        key = u.tobytes()
+        if key not in self.grads:
+            step = np.where(u + FD_STEP <= 1.0, FD_STEP, -FD_STEP)   # backward at the upper bound
+            U = u + np.diag(step)
+            vals = np.array([self._values(pt) for pt in evaluate(self.p, self.p.from_unit(U))])
+            self.solves += len(U)
+            self.grads[key] = (vals - self.at(u)).T / step
+        return self.grads[key]
+
+    def run(self, u0, equality: bool = True):
+        cons = [{"type": "ineq", "fun": lambda u: self.at(u)[2:], "jac": lambda u: self.grad(u)[2:]}]
+        if equality:
+            cons.append({"type": "eq", "fun": lambda u: self.at(u)[1:2], "jac": lambda u: self.grad(u)[1:2]})
+        return minimize(lambda u: OBJECTIVE_SCALE * self.at(u)[0], np.clip(u0, 0, 1),
+                        jac=lambda u: OBJECTIVE_SCALE * self.grad(u)[0],
+                        method="SLSQP", bounds=[(0.0, 1.0)] * len(u0), constraints=cons,
+                        options={"maxiter": SLSQP_ITERATIONS, "ftol": SLSQP_FTOL})
 
 
-def _evaluate_chunk(args) -> list[Candidate]:
-    problem, X, tolerance = args
-    return evaluate(problem, X, tolerance)
+def feasible(problem: DesignProblem, pt: Point, slack: float = 0.0, in_range: bool = True) -> bool:
+    """Whether a point keeps the range (within RANGE_TOLERANCE; unless not ``in_range``), the
+    stress (with ``slack``), the hinge bounds and every rule of
+    :func:`geometry.checks.check_design`."""
+    if not pt.ok or pt.utilisation > 1 - slack or (in_range and abs(pt.log_range_error) > math.log1p(RANGE_TOLERANCE)):
+        return False
+    t = np.array(pt.design.used_thickness_mm)
+    if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
+        return False
+    return check_design(pt.design).feasible
+
+
+def _local_search(args) -> tuple[np.ndarray, list[Point], int]:
+    """One SLSQP run: (its end in the unit box, every point evaluated, solves made)."""
+    problem, u0, objective = args
+    loc = _Local(problem, objective)
+    res = loc.run(u0, equality=objective == "se")
+    return np.clip(res.x, 0, 1), loc.points, loc.solves
+
+
+# --- starts ---------------------------------------------------------------------------------
+
+def scale_to_range(problem: DesignProblem, Z, iterations: int = 12, tolerance: float = 1e-6,
+                   counter: list | None = None) -> np.ndarray:
+    """Variables Z with every hinge thickened or thinned together (one common factor per row)
+    until the range is the target (range ~ t^3 at fixed shape: a secant in log-log), not
+    clipped to the hinge bounds. A row that fails to solve is returned as it came.
+    ``counter``: a one-element list the number of solves is added to."""
+    Z = np.array(np.atleast_2d(Z), dtype=float)
+    prev: list = [None] * len(Z)
+    alive = np.arange(len(Z))
+    for _ in range(iterations):
+        if not len(alive):
+            break
+        pts = evaluate(problem, Z[alive])
+        if counter is not None:
+            counter[0] += len(alive)
+        keep = []
+        for k, pt in zip(alive, pts):
+            err = pt.log_range_error
+            if not pt.ok or abs(err) <= tolerance:
+                continue
+            shift = 0.0
+            slope = 3.0 if prev[k] is None or prev[k][0] == 0 else (err - prev[k][1]) / prev[k][0]
+            slope = min(max(slope, 1.0), 5.0)
+            shift = -err / slope
+            prev[k] = (shift, err)
+            Z[k, problem.n_angles:] += shift
+            keep.append(k)
+        alive = np.array(keep, dtype=int)
+    return Z
+
+
+def equal_hinge_start(problem: DesignProblem, n: int = 8, counter: list | None = None) -> np.ndarray | None:
+    """The best feasible equal-hinge body of the range on an n x n grid of angles (n for the
+    basis body), as variables; None if no cell of the grid is feasible."""
+    lo, hi = problem.lower[:problem.n_angles], problem.upper[:problem.n_angles]
+    axes = [np.linspace(a, b, n) for a, b in zip(lo, hi)]
+    angles = np.array(np.meshgrid(*axes, indexing="ij")).reshape(problem.n_angles, -1).T
+    if problem.body == "proposed":
+        angles = angles[angles[:, 1] <= [problem.domain.phi2_edge(p) for p in angles[:, 0]]]
+    t0 = math.log(math.sqrt(problem.hinge_min_mm * problem.hinge_max_mm))
+    Z = scale_to_range(problem, np.hstack([angles, np.full((len(angles), len(problem.pairs)), t0)]),
+                       counter=counter)
+    pts = evaluate(problem, Z)
+    good = [pt for pt in pts if feasible(problem, pt)]
+    return np.array(min(good, key=lambda pt: pt.log_se).z) if good else None
+
+
+def starts(problem: DesignProblem, n: int = STARTS, counter: list | None = None) -> np.ndarray:
+    """Start points in the unit box: a Latin hypercube of n (seeded by ``problem.seed``)
+    scaled to the range, and the best equal-hinge body of the range."""
+    lhs = qmc.LatinHypercube(d=len(problem.lower), seed=problem.seed).random(n)
+    Z = scale_to_range(problem, problem.from_unit(lhs), counter=counter)
+    eq = equal_hinge_start(problem, counter=counter)
+    if eq is not None:
+        Z = np.vstack([eq, Z])
+    return np.clip(problem.to_unit(Z), 0, 1)
+
+
+# --- the answer -----------------------------------------------------------------------------
+
+def _round_inward(v: float, lo: float, hi: float, q: float) -> float:
+    """v rounded to the quantum q, moved inside [lo, hi] by whole quanta if it left it."""
+    r = round(v / q) * q
+    if r > hi:
+        r = math.floor(hi / q + 1e-9) * q
+    if r < lo:
+        r = math.ceil(lo / q - 1e-9) * q
+    return float(round(r, 10))
+
+
+def written(problem: DesignProblem, design: Design, name: str) -> Design:
+    """The design as it is written: angles to ANGLE_QUANTUM, hinges to THICKNESS_QUANTUM,
+    each rounded inward (inside the angle domain and the hinge bounds), and read back
+    through the TOML writer and reader."""
+    import tomllib
+
+    import tomli_w
+
+    p1 = _round_inward(design.phi1_deg, problem.lower[0], problem.upper[0], ANGLE_QUANTUM)
+    p2 = None if design.is_basis else _round_inward(design.phi2_deg, PHI2_BOUNDS[0],
+                                                    problem.domain.phi2_edge(p1), ANGLE_QUANTUM)
+    n = len(design.used_hinges)
+    t = tuple(_round_inward(v, problem.hinge_min_mm, problem.hinge_max_mm, THICKNESS_QUANTUM)
+              for v in design.used_thickness_mm) + design.hinge_thickness_mm[n:]
+    d = design.replace(phi1_deg=p1, phi2_deg=p2, hinge_thickness_mm=t, name=name)
+    return design_from_dict(tomllib.loads(tomli_w.dumps({"design": design_to_dict(d)}))["design"])
+
+
+def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
+    """Variables z snapped onto the hinge bounds they are within ``atol`` (in log t) of, the
+    other hinges scaled together to bring the range back to the target (all hinges if every
+    one is at a bound); None when that cannot be done inside the bounds."""
+    z = np.array(z, dtype=float)
+    k = problem.n_angles
+    lo, hi = problem.lower[k:], problem.upper[k:]
+    t = np.clip(z[k:], lo, hi)
+    t = np.where(t - lo < atol, lo, np.where(hi - t < atol, hi, t))
+    free = (t > lo) & (t < hi)
+    if not free.any():
+        free[:] = True
+    z[k:] = t
+    for _ in range(12):
+        pt = evaluate(problem, z[None])[0]
+        if not pt.ok:
+            return None
+        err = pt.log_range_error
+        if abs(err) <= 1e-7:
+            break
+        # a Newton step on the free groups' common log factor (forward-difference slope)
+        h = -1e-5                         # thinning: never past the upper bound
+        z2 = z.copy()
+        z2[k:][free] += h
+        slope = (evaluate(problem, z2[None])[0].log_range_error - err) / h
+        if not slope > 0:
+            return None
+        z[k:][free] -= err / slope
+    zt = z[k:]
+    if (zt < lo - 1e-12).any() or (zt > hi + 1e-12).any():
+        return None
+    return z
+
+
+def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
+    """The final check of a written design: it solves, its range is the target within
+    RANGE_TOLERANCE, its stress utilisation is at most 1, its hinges are inside the bounds
+    and it keeps every feasibility rule. (ok, why not)."""
+    m, r = solve_designs([design], problem.travel_mm)[0]
+    if m is None:
+        return False, r
+    err = r.input_force_N / problem.range_N - 1
+    if abs(err) > RANGE_TOLERANCE:
+        return False, f"range {r.input_force_N:.4g} N is {100 * err:+.2f} % off"
+    util = stress_check(design, m, r).utilisation
+    if util > 1:
+        return False, f"stress {util:.4f} x allowable"
+    t = np.array(design.used_thickness_mm)
+    if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
+        return False, f"hinges {t.min():.4f}-{t.max():.4f} mm outside {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g}"
+    fail = check_design(design).first_failure
+    if fail is not None:
+        return False, f"{fail.rule}: {fail.message}"
+    return _profile_inside(design)
+
+
+def _profile_inside(design: Design) -> tuple[bool, str]:
+    """Whether the cut profile (the CAD face, roots included) stays in the footprint: the
+    feasibility rules check the parts with the hinges cut back to their flexible length."""
+    from geometry.cad import profile_face
+
+    bb = profile_face(design).BoundingBox()
+    tol = 1e-6
+    if (bb.xmin < -design.width_mm / 2 - tol or bb.xmax > design.width_mm / 2 + tol
+            or bb.ymin < -tol or bb.ymax > design.height_mm + tol):
+        return False, (f"profile spans x [{bb.xmin:.2f}, {bb.xmax:.2f}], y [{bb.ymin:.2f}, {bb.ymax:.2f}] mm: "
+                       f"outside the footprint {design.width_mm:g} x {design.height_mm:g} mm")
+    return True, ""
 
 
 @dataclass(frozen=True)
 class DesignResult:
-    """The optimiser's answer: the best candidate, how many were evaluated, in how long."""
+    """The optimiser's answer: the written design, its hysteresis and stress utilisation, the
+    reachable interval (N; NaN unless the search needed it), the solves of the search (starts
+    and SLSQP; the acceptance's few are not counted) and its wall time (s)."""
 
-    best: Candidate
+    design: Design
     problem: DesignProblem
+    hysteresis: float
+    utilisation: float
+    reach: tuple[float, float]
     evaluations: int
     seconds: float
 
 
-def optimise(problem: DesignProblem, pool=None, popsize: int = 6, maxiter: int = 50,
-             tol: float = 1e-3, polish_evaluations: int = 200) -> DesignResult:
-    """Differential evolution (deterministic for a given ``problem.seed``) over the angles
-    and the pair-thickness ratios, then a bounded Powell search from its best (the optimum
-    usually has pairs at the hinge bounds, where a population converges slowly); ``pool``
-    a :class:`~sensor.design_space.execution.TaskPool` (default: in this process). Raises
-    :class:`DesignError` naming the reachable interval when no candidate is feasible."""
+def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: str = "optimised") -> DesignResult:
+    """The best body of the problem's range (module docstring); ``pool`` a
+    :class:`~sensor.design_space.execution.TaskPool` for the local searches (default: in this
+    process). When no start reaches a feasible body, the reachable interval is computed
+    (:func:`sensor.design_space.reach.reachable_range`): outside it, :class:`DesignError`
+    names it; inside it, the search starts again from the feasible bodies the reach computation
+    found nearest the range."""
+    from sensor.design_space.reach import reachable_range, unreachable_message
+
     t0 = time.monotonic()
-    reach = reachable_range(problem)
-    if not (reach[0] / REACH_MARGIN <= problem.range_N <= reach[1] * REACH_MARGIN):
-        raise DesignError(unreachable_message(problem, reach))
-    archive: list[Candidate] = []
-
-    def scores(X):                        # X: (variables, candidates)
-        rows = np.asarray(X).T
-        if pool is None or pool.size <= 1 or len(rows) == 1:
-            cands = evaluate(problem, rows, SEARCH_TOLERANCE)
-        else:
-            chunks = np.array_split(rows, min(len(rows), 2 * pool.size))
-            cands = [c for part in pool.map(_evaluate_chunk, [(problem, ch, SEARCH_TOLERANCE) for ch in chunks])
-                     for c in part]
-        archive.extend(cands)
-        return np.array([c.score for c in cands])
-
-    bounds = problem.bounds()
-    de = differential_evolution(scores, bounds, popsize=popsize, maxiter=maxiter, tol=tol,
-                                seed=problem.seed, vectorized=True, updating="deferred", polish=False,
-                                init="latinhypercube", mutation=(0.5, 1.0), recombination=0.7)
-    if polish_evaluations and de.fun < PENALTY:
-        minimize(lambda x: scores(np.asarray(x)[:, None])[0], de.x, method="Powell", bounds=bounds,
-                 options={"maxfev": polish_evaluations, "xtol": 1e-3, "ftol": 1e-5})
-    # the answer: the best few candidates matched to the range exactly, ties by resolution
-    order = sorted((c for c in archive if c.score < PENALTY), key=lambda c: c.score)
-    finalists = [c for c in evaluate(problem, np.array([c.x for c in order[:FINALISTS]]).reshape(-1, len(bounds)))
-                 if c.score < PENALTY] if order else []
-    if not finalists:
-        raise DesignError(unreachable_message(problem, reach))
-    best = min(c.score for c in finalists)
-    ties = [c for c in finalists if c.score <= best + TIE * abs(best)]
-    choice = min(ties, key=lambda c: (c.resolution_N, c.score))
-    return DesignResult(choice, problem, len(archive) + len(order[:FINALISTS]), time.monotonic() - t0)
+    counter = [0]
+    U0 = starts(problem, n_starts, counter)
+    best, evaluations = _search(problem, U0, pool, name)
+    reach = (math.nan, math.nan)
+    if best is None:
+        reach, ends, gap = reachable_range(problem, pool, with_bodies=True)
+        if not reach[0] * (1 - RANGE_TOLERANCE) <= problem.range_N <= reach[1] * (1 + RANGE_TOLERANCE):
+            raise DesignError(unreachable_message(problem, reach))
+        more = scale_to_range(problem, np.array([problem.variables(d) for d in ends]), counter=counter)
+        best, extra = _search(problem, np.clip(problem.to_unit(more), 0, 1), pool, name)
+        evaluations += extra
+        if best is None:
+            raise DesignError(f"range_N = {problem.range_N:g}: no {problem.body} body found within the feasibility "
+                              f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable "
+                              f"stress; feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, but the nearest "
+                              f"found are at {gap[0]:.4g} and {gap[1]:.4g} N (the stress limit leaves a gap)")
+    h, util, design = best
+    return DesignResult(design, problem, h, util, reach, evaluations + counter[0], time.monotonic() - t0)
 
 
-def unreachable_message(problem: DesignProblem, reach: tuple[float, float]) -> str:
-    """The one line for a range no feasible body reaches, naming about where they do."""
-    lo, hi = reach
-    return (f"range_N = {problem.range_N:g}: no {problem.body} body within the feasibility rules, "
-            f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable stress reaches "
-            f"it at {problem.target_output_mm:g} mm travel; with equal hinges they reach about {lo:.3g} to "
-            f"{hi:.3g} N (unequal hinges somewhat further)")
-
-
-def reachable_range(problem: DesignProblem, n: int = 7) -> tuple[float, float]:
-    """About the smallest and largest range (N) of feasible bodies within the stress limit:
-    a coarse grid of angles, every hinge at hinge_min_mm (smallest range) and at the
-    thickness where the stress utilisation reaches 1 or hinge_max_mm (largest)."""
-    ref = problem.reference()
-    phi1s = np.linspace(PHI1_MIN + 3, phi1_limit_deg(ref) - 0.2, n)
-    phi2s = np.linspace(*PHI2_BOUNDS, n) if problem.body == "proposed" else [None]
-    designs = []
-    for p1 in phi1s:
-        for p2 in phi2s:
-            x = [p1] + ([] if p2 is None else [p2]) + [0.0] * (len(problem.pairs) - 1)
-            d = problem.design(x, problem.hinge_min_mm)
-            if check_design(d).feasible:
-                designs.append(d)
-    lows, highs = [], []
-    for d in designs:
-        res, _ = solve_batch([build_beam_model(d)], target_output_mm=problem.target_output_mm)
-        if res[0] is None:
+def _search(problem: DesignProblem, U0: np.ndarray, pool, name: str):
+    """SLSQP from each start; the best of up to FINALISTS feasible candidates, each projected
+    and written (:func:`project`, :func:`written`, :func:`accept`): ((H, utilisation,
+    design) or None, bodies evaluated)."""
+    jobs = [(problem, u, "se") for u in U0]
+    runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
+    evaluations = sum(n for _, _, n in runs)
+    ends = evaluate(problem, problem.from_unit(np.array([u for u, _, _ in runs])))
+    seen = [pt for _, pts, _ in runs for pt in pts] + ends
+    candidates = sorted((pt for pt in seen if feasible(problem, pt)), key=lambda pt: pt.log_se)
+    # ends just over the stress limit or off the range are projected too
+    candidates += sorted((pt for pt in ends if pt.ok and pt.utilisation <= 1.01), key=lambda pt: pt.log_se)
+    finals = []
+    for pt in candidates[:4 * FINALISTS]:
+        z = project(problem, pt.z)
+        if z is None:
             continue
-        util = stress_check(d, build_beam_model(d), res[0]).utilisation
-        if util > 1:
-            continue
-        lows.append(res[0].input_force_N)
-        t = min(problem.hinge_max_mm, problem.hinge_min_mm / util)
-        thick = d.replace(hinge_thickness_mm=tuple(t if i < (8 if d.is_basis else 12) else v
-                                                   for i, v in enumerate(d.hinge_thickness_mm)))
-        if check_design(thick).feasible:
-            r2, _ = solve_batch([build_beam_model(thick)], target_output_mm=problem.target_output_mm)
-            if r2[0] is not None:
-                highs.append(r2[0].input_force_N)
-    if not lows:
-        return math.nan, math.nan
-    return min(lows), max(highs + lows)
+        d = written(problem, problem.design(z), name)
+        if not any(d == f for f in finals) and accept(problem, d)[0]:
+            finals.append(d)
+        if len(finals) == FINALISTS:
+            break
+    if not finals:
+        return None, evaluations
+    scored = [(qualify(r, problem.law).hysteresis, stress_check(d, m, r).utilisation, d)
+              for d, (m, r) in zip(finals, solve_designs(finals, problem.travel_mm))]
+    return min(scored, key=lambda s: s[0]), evaluations
 
 
 def describe(design: Design, problem: DesignProblem) -> dict:
@@ -391,19 +607,17 @@ def describe(design: Design, problem: DesignProblem) -> dict:
     resolution from the full sensor model): the keys of ``dacm design --json``."""
     from dataclasses import asdict
 
-    from geometry.params import design_to_dict
     from sensor.readout.datasheet import datasheet
     from sensor.readout.sensor_model import build_sensor
 
-    model = build_beam_model(design)
-    r = solve_batch([model], target_output_mm=problem.target_output_mm)[0][0]
-    if r is None:
-        raise DesignError(f"design {design.name}: does not solve to the travel {problem.target_output_mm:g} mm")
+    m, r = solve_designs([design], problem.travel_mm)[0]
+    if m is None:
+        raise DesignError(f"design {design.name}: does not solve to the travel {problem.travel_mm:g} mm ({r})")
     q = qualify(r, problem.law)
-    sheet = datasheet(build_sensor(design, law=problem.law, target_output_mm=problem.target_output_mm),
+    sheet = datasheet(build_sensor(design, law=problem.law, target_output_mm=problem.travel_mm),
                       material=design.material.name)
     return {"design": design_to_dict(design), "range_N": q.range_N, "hysteresis": q.hysteresis,
             "resolution_N": sheet.resolution_N, "amplification": q.amplification,
             "k_out_N_per_mm": q.k_out_N_per_mm, "strain_energy_mJ": q.strain_energy_mJ,
-            "stress_utilisation": stress_check(design, model, r).utilisation,
+            "stress_utilisation": stress_check(design, m, r).utilisation,
             "quality_mm_per_N": q.quality_mm_per_N, "datasheet": asdict(sheet)}

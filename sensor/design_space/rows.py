@@ -12,6 +12,7 @@ from geometry.params import HINGE_SETS
 from geometry.topology import build_beam_model
 from sensor.design_space.dataset import BODY, FAMILY, MC_QUALIFIERS, mc_statistic
 from sensor.design_space.resolution import resolutions_N
+from sensor.design_space.scatter import as_cut
 from sensor.design_space.spec import SweepSpec
 from sensor.mechanics.qualifiers import Qualifiers, qualify
 from sensor.mechanics.solver import SolverOptions, solve_batch
@@ -111,13 +112,8 @@ def _monte_carlo_row(spec, hinges, i, designs, cells, n_phi2, opts) -> dict:
     stats = {mc_statistic(k, s): np.full(n_phi2, np.nan) for k in MC_QUALIFIERS for s in ("mean", "std", "tail")}
     stats["mc_yield"] = np.full(n_phi2, np.nan)
     for d, j in zip(designs, cells):
-        rng = _cell_seed(spec.seed, hinges, i, j)
-        nominal = np.array(d.hinge_thickness_mm)
-        draws = nominal + spec.hinge_sd_mm * rng.standard_normal((spec.monte_carlo, len(nominal)))
-        used = slice(None, 8) if d.is_basis else slice(None)
-        makeable = draws[:, used].min(axis=1) >= d.min_feature_mm
-        models = [build_beam_model(d.replace(hinge_thickness_mm=tuple(t))) for t in draws[makeable]]
-        res, _ = solve_batch(models, target_output_mm=spec.target_output_mm, options=opts) if models else ([], [])
+        z = _cell_seed(spec.seed, hinges, i, j).standard_normal((spec.monte_carlo, len(d.hinge_thickness_mm)))
+        res = as_cut(d, z, spec.hinge_sd_mm, travel_mm=spec.target_output_mm, options=opts).results
         stats["mc_yield"][j] = sum(r is not None for r in res) / spec.monte_carlo
         q = [qualify(r, spec.law) for r in res if r is not None]
         for k in MC_QUALIFIERS:

@@ -17,8 +17,10 @@ from sensor.validation import Number, is_integer
 
 #: Bounds on a sweep's size, checked before anything is allocated: points per grid axis,
 #: cells of the whole sweep, and solves including Monte-Carlo draws (about a day on 2 cores).
+#: The client grows by about 1.3 kB a cell (1.5 GB at 10^6 cells; README, Performance);
+#: the workers' memory does not grow with the grid.
 MAX_GRID_N = 2000
-MAX_CELLS = 250_000
+MAX_CELLS = 1_000_000
 MAX_SOLVES = 10_000_000
 _ANGLE = Number(0.0, 90.0, lo_open=True, hi_open=True, unit="deg")
 _GRID_N = Number(1, MAX_GRID_N, integer=True)
@@ -143,7 +145,8 @@ class SweepSpec:
     def family_design(self, phi1: float, thickness_mm: float) -> Design:
         """The basis body at ``phi1`` with hinges 1-8 ``thickness_mm`` thick (9-12 unused)."""
         d = self.design(self.hinge_sets[0], phi1, None)
-        return d.replace(hinge_thickness_mm=(float(thickness_mm),) * 8 + d.hinge_thickness_mm[8:],
+        n = len(d.used_hinges)
+        return d.replace(hinge_thickness_mm=(float(thickness_mm),) * n + d.hinge_thickness_mm[n:],
                          hinge_set="basis-family", name=f"basis-{phi1:g}-{thickness_mm:.4g}")
 
     def to_json(self) -> str:

@@ -61,7 +61,7 @@ def node_state(q, body_of_node, r0, u, th, rho):
 
 
 @njit(cache=True, error_model="numpy")
-def element(k, ea, eb, d0, L0, beta0, Kn, u, th, rho, defo, qf, f, K, Bm, KB, z, r):
+def element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, K, Bm, KB, z, r):
     """Member k: chord-frame deformations defo (stretch, theta_a, theta_b), conjugate forces
     qf (N, M_a, M_b), node forces f (6,) and tangent K (6, 6) on the dofs of the two bodies
     (x, y, rotation of the body at a, then at b). Returns the member's strain energy, mJ."""
@@ -77,22 +77,23 @@ def element(k, ea, eb, d0, L0, beta0, Kn, u, th, rho, defo, qf, f, K, Bm, KB, z,
     t1 = _wrap(th[a] - alpha)
     t2 = _wrap(th[b] - alpha)
     defo[0], defo[1], defo[2] = stretch, t1, t2
-    # bowing: the axis is longer than the chord by L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30
-    c30 = L0[k] / 30.0
-    e0 = stretch + c30 * (2 * t1 * t1 - t1 * t2 + 2 * t2 * t2)
+    # bowing: the axis is longer than the chord by p11 t1^2 + p12 t1 t2 + p22 t2^2 (for a
+    # uniform member L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30; Bw holds each member's p)
+    p11, p12, p22 = Bw[k, 0], Bw[k, 1], Bw[k, 2]
+    e0 = stretch + p11 * t1 * t1 + p12 * t1 * t2 + p22 * t2 * t2
     kn = Kn[k]
     q0 = kn[0, 0] * e0 + kn[0, 1] * t1 + kn[0, 2] * t2
     q1 = kn[1, 0] * e0 + kn[1, 1] * t1 + kn[1, 2] * t2
     q2 = kn[2, 0] * e0 + kn[2, 1] * t1 + kn[2, 2] * t2
-    b1, b2 = c30 * (4 * t1 - t2), c30 * (4 * t2 - t1)
+    b1, b2 = 2 * p11 * t1 + p12 * t2, p12 * t1 + 2 * p22 * t2
     qf[0], qf[1], qf[2] = q0, q1 + q0 * b1, q2 + q0 * b2
     energy = 0.5 * (e0 * q0 + t1 * q1 + t2 * q2)
     # local tangent J^T Kn J + N d2(bow)/d(theta)2, J = I + e0 (0, b1, b2)
-    ka, nb = kn[0, 0], q0 * c30
+    ka = kn[0, 0]
     k01, k02 = kn[0, 1] + ka * b1, kn[0, 2] + ka * b2
-    k11 = kn[1, 1] + ka * b1 * b1 + 4 * nb
-    k22 = kn[2, 2] + ka * b2 * b2 + 4 * nb
-    k12 = kn[1, 2] + ka * b1 * b2 - nb
+    k11 = kn[1, 1] + ka * b1 * b1 + 2 * p11 * q0
+    k22 = kn[2, 2] + ka * b2 * b2 + 2 * p22 * q0
+    k12 = kn[1, 2] + ka * b1 * b2 + p12 * q0
     # r = d(stretch)/dx, z = Ln d(chord angle)/dx in node dofs (xa, ya, ta, xb, yb, tb)
     r[0], r[1], r[2], r[3], r[4], r[5] = -c, -s, 0.0, c, s, 0.0
     z[0], z[1], z[2], z[3], z[4], z[5] = s, -c, 0.0, -s, c, 0.0
@@ -151,7 +152,7 @@ def _evaluate(q, lam, topo, bt, b, w):
     """Residual w.F (out-of-balance forces, F - lam g_in), tangent w.K, the input port's
     gradient w.g_in and the output port's gradient w.g_out at state q; returns the output travel."""
     body_of_node, dof_of_body, ea, eb, elem_dofs, in_node, out_node = topo[:7]
-    r0, d0, L0, beta0, Kn, f_in, d_out = bt
+    r0, d0, L0, beta0, Kn, f_in, d_out, Bw = bt
     node_state(q, body_of_node, r0[b], w.u, w.th, w.rho)
     nd = w.F.shape[0]
     for i in range(nd):
@@ -159,7 +160,7 @@ def _evaluate(q, lam, topo, bt, b, w):
         for j in range(nd):
             w.Kg[i, j] = 0.0
     for k in range(ea.shape[0]):
-        element(k, ea, eb, d0[b], L0[b], beta0[b], Kn[b], w.u, w.th, w.rho, w.defo, w.qf, w.f,
+        element(k, ea, eb, d0[b], L0[b], beta0[b], Kn[b], Bw[b], w.u, w.th, w.rho, w.defo, w.qf, w.f,
                 w.Ke, w.Bm, w.KB, w.z, w.r)
         for i in range(6):
             di = elem_dofs[k, i]
@@ -352,9 +353,9 @@ def final_state(q, topo, bt, w, u, th, defo, qf, energy):
     """Node displacements u (B, n, 2) and rotations th (B, n), member deformations defo and
     forces qf (B, e, 3) and strain energies (B, e) at the states q (B, c, 3)."""
     body_of_node, ea, eb = topo[0], topo[2], topo[3]
-    r0, d0, L0, beta0, Kn = bt[0], bt[1], bt[2], bt[3], bt[4]
+    r0, d0, L0, beta0, Kn, Bw = bt[0], bt[1], bt[2], bt[3], bt[4], bt[7]
     for b in range(q.shape[0]):
         node_state(q[b], body_of_node, r0[b], u[b], th[b], w.rho)
         for k in range(ea.shape[0]):
-            energy[b, k] = element(k, ea, eb, d0[b], L0[b], beta0[b], Kn[b], u[b], th[b], w.rho,
+            energy[b, k] = element(k, ea, eb, d0[b], L0[b], beta0[b], Kn[b], Bw[b], u[b], th[b], w.rho,
                                    defo[b, k], qf[b, k], w.f, w.Ke, w.Bm, w.KB, w.z, w.r)

@@ -294,10 +294,19 @@ def _step_down(scale: float) -> float:
 
 def rigid_outlines(parts: list[Part], motions: list[PartMotion], model: BeamModel,
                    result: SolveResult) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """(name, outline at rest (k, 2), displacement of its corners (k, 2)) of every rigid part."""
+    """(name, outline at rest (k, 2), displacement of its corners (k, 2)) of every rigid
+    part, and of the plate and platform halves, which bend a little with their members
+    (their corners follow the member's field)."""
     X0, x, th = model.nodes, result.deformed_nodes, result.node_rotation_rad
-    return [(p.name, p.polygon, _rigid(p.polygon, X0[mo.node], x[mo.node] - X0[mo.node], float(th[mo.node])))
-            for p, mo in zip(parts, motions) if mo.member < 0]
+
+    def moved(p, mo):
+        if mo.member < 0:
+            return _rigid(p.polygon, X0[mo.node], x[mo.node] - X0[mo.node], float(th[mo.node]))
+        a, b = mo.start, mo.end
+        return _member(p.polygon, X0[a], X0[b], x[a], x[b], float(th[a]), float(th[b]))
+
+    return [(p.name, p.polygon, moved(p, mo)) for p, mo in zip(parts, motions)
+            if mo.member < 0 or p.kind in ("plate", "platform")]
 
 
 def overlapping_parts(outlines, scale: float) -> list[tuple[str, str]]:

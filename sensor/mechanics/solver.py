@@ -111,6 +111,43 @@ def profile_flexibility(stations, b, E, G):
     return C
 
 
+#: Sub-intervals per profile segment in the bowing integrals (midpoint rule; the uniform
+#: member's L/15 comes out within 1e-4 relative with 16 on one segment).
+_BOW_SUBSTEPS = 16
+
+
+def profile_bowing(stations):
+    """Bowing coefficients (..., 3) of members whose thickness varies along them: the axis
+    is longer than the chord by p11 theta_a^2 + p12 theta_a theta_b + p22 theta_b^2 when the
+    ends turn by theta_a, theta_b from the chord (the shallow-arch term of the solver's
+    co-rotational members). The deflected shape is that of the member under end moments,
+    curvature M(s) / EI(s) with M linear in s (eqs 80-82), so a neck between stiff fillets
+    bends where it is thin; for a uniform member p = L (2, -1, 2) / 30 (the cubic shape)."""
+    st = np.asarray(stations, dtype=float)
+    s, t = st[..., 0], st[..., 1]
+    L = s[..., -1:]
+    frac = (np.arange(_BOW_SUBSTEPS) + 0.5) / _BOW_SUBSTEPS
+    h = np.diff(s, axis=-1)[..., None]
+    x = (s[..., :-1, None] + h * frac).reshape(*s.shape[:-1], -1)
+    tx = (t[..., :-1, None] + np.diff(t, axis=-1)[..., None] * frac).reshape(x.shape)
+    ds = np.repeat(np.diff(s, axis=-1) / _BOW_SUBSTEPS, _BOW_SUBSTEPS, axis=-1)
+    flex = ds / tx**3                                       # ds / EI, up to a constant
+    fa, fb = (1 - x / L) * flex, (x / L) * flex            # curvature per unit end moment
+    cum_a, cum_b = np.cumsum(fa, -1) - fa / 2, np.cumsum(fb, -1) - fb / 2
+    Aa, Ab = fa.sum(-1), fb.sum(-1)
+    Ca, Cb = ((L - x) * fa).sum(-1), ((L - x) * fb).sum(-1)
+    det = Aa * Cb - Ab * Ca
+    Lr = L[..., 0]
+
+    def slope(theta_a, theta_b):  # w'(x) for unit end rotations: w(0) = w(L) = 0
+        r1, r2 = theta_b - theta_a, -theta_a * Lr
+        ma, mb = (r1 * Cb - Ab * r2) / det, (Aa * r2 - Ca * r1) / det
+        return theta_a + ma[..., None] * cum_a + mb[..., None] * cum_b
+
+    pa, pb = slope(1.0, 0.0), slope(0.0, 1.0)
+    return np.stack([0.5 * (pa * pa * ds).sum(-1), (pa * pb * ds).sum(-1), 0.5 * (pb * pb * ds).sum(-1)], axis=-1)
+
+
 def natural_stiffness(L, t, b, E, G, flexibility=None):
     """Member stiffness (..., 3, 3) on the chord-frame deformations [u, theta_a, theta_b].
 
@@ -262,12 +299,13 @@ class _Batch:
     d_out: np.ndarray    # (B, 2) output travel direction
     d_in: np.ndarray     # (B, 2)
     dof_weight: np.ndarray  # (B, n_dof) 1 on forces, 1 / model size on moments (residual norm)
+    bow: np.ndarray      # (B, e, 3) bowing coefficients (profile_bowing)
 
     @property
     def kernel_args(self) -> tuple:
         """The per-design constants as the compiled kernel takes them (C-ordered float arrays)."""
         return tuple(np.ascontiguousarray(a, dtype=float)
-                     for a in (self.r0, self.d0, self.L0, self.beta0, self.Kn, self.f_in, self.d_out))
+                     for a in (self.r0, self.d0, self.L0, self.beta0, self.Kn, self.f_in, self.d_out, self.bow))
 
 
 def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
@@ -280,31 +318,40 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
     b = np.stack([m.depth_mm[topo.flex] for m in models])
     E = np.array([m.E_MPa for m in models])[:, None]
     G = E / (2 * (1 + np.array([m.nu for m in models])[:, None]))
-    Kn = natural_stiffness(L0, t, b, E, G, _member_flexibility(topo, models, L0, t, b, E, G))
+    C, bow = _member_sections(topo, models, L0, t, b, E, G)
+    Kn = natural_stiffness(L0, t, b, E, G, C)
     f_in = np.stack([m.input_direction for m in models])
     d_out = np.stack([m.output_direction for m in models])
     size = np.ptp(X, axis=1).max(axis=1)              # (B,) largest extent, mm
     weight = np.ones((len(models), topo.n_dof))
     rot = topo.dof_of_body[:, 2][topo.dof_of_body[:, 2] >= 0]
     weight[:, rot] = 1.0 / size[:, None]
-    return _Batch(X, r0, d, L0, beta0, Kn, f_in, d_out, f_in, weight)
+    return _Batch(X, r0, d, L0, beta0, Kn, f_in, d_out, f_in, weight, bow)
 
 
-def _member_flexibility(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
-    """Tip flexibility (B, e, 3, 3) of the compliant members: uniform ones in closed form,
-    those with a thickness profile (hinges with root fillets) by :func:`profile_flexibility`,
-    all of a batch in one call. The profiles of one member stack across the batch (same
-    number of stations); their stations are scaled to the member's undeformed length."""
+def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
+    """Tip flexibility (B, e, 3, 3) and bowing coefficients (B, e, 3) of the compliant
+    members: uniform ones in closed form, those with a thickness profile (hinges with root
+    fillets) by :func:`profile_flexibility` and :func:`profile_bowing`, all of a batch in one
+    call. The profiles of one member stack across the batch; their stations are scaled to
+    the member's undeformed length."""
     C = cantilever_flexibility(L0, t, b, E, G)
+    bow = L0[..., None] * np.array([2.0, -1.0, 2.0]) / 30.0
     first = models[0].profile_mm
     cols = [j for j, k in enumerate(topo.flex) if first[k] is not None]
     if not cols:
-        return C
+        return C, bow
     members = topo.flex[cols]
-    st = np.array([[m.profile_mm[k] for k in members] for m in models])          # (B, h, k, 2)
+    # members may have different numbers of stations (a split member's pieces): pad with
+    # zero-length segments at the end, which add nothing to the integrals
+    k_max = max(len(m.profile_mm[k]) for m in models for k in members)
+    st = np.array([[np.pad(m.profile_mm[k], ((0, k_max - len(m.profile_mm[k])), (0, 0)), mode="edge")
+                    for k in members] for m in models])                         # (B, h, k, 2)
     st[..., 0] *= (L0[:, cols] / st[..., -1, 0])[..., None]
     C[:, cols] = profile_flexibility(st, b[:, cols], E, G)
-    return C
+    with np.errstate(invalid="ignore", divide="ignore"):  # padded zero-length segments
+        bow[:, cols] = np.nan_to_num(profile_bowing(st))
+    return C, bow
 
 
 # --- results ---------------------------------------------------------------------------------

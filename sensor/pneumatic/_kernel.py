@@ -3,8 +3,12 @@
 The state vector is [z, v, side 1 block, side 2 block]; a side block holds the node
 pressures P_k (Pa, the last node is the chamber), the element mass flows m_k (kg/s), the
 unsteady-friction states y_{k,i} (kg/s) and the heat-transfer states w_{k,i} (Pa) of the tube
-nodes.  Indices of the packed parameter vectors are the module constants below; the Python
-side (:mod:`sensor.pneumatic.plant`) builds them.
+nodes, at the offsets its SIDE record names; then the chamber-node masses and the spool.
+Parameters, accumulators, the loop's log and the sensors are named records (numba structured
+types :data:`COMMON`, :data:`SIDE`, :data:`ACC`, :data:`LOG`, :data:`SENSOR`, :data:`FILTER`,
+:data:`LOOP`, defined together below; :mod:`sensor.pneumatic.plant` and
+:mod:`sensor.pneumatic.simulate` fill them).  Only the stepper's scratch ``work`` keeps
+offsets (see :func:`advance`).
 
 Stepper (one substep h, command held): (1) piston, staggered like the line (velocity kicked
 by the old forces with Newmark averaging of stiffness and damping, see :func:`piston_step`); (2) element
@@ -23,40 +27,76 @@ from numba import njit
 
 from sensor.pneumatic.valve import orifice_flow, port_flow
 
-# common parameters pc[...]
-RT, MU, GAMMA, PR, PATM, PSUP, BCRIT, RLAM, KREF = 0, 1, 2, 3, 4, 5, 6, 7, 8
-A1, A2, AROD, STROKE, VD1, VD2, MASS, VISC, FC, VS = 9, 10, 11, 12, 13, 14, 15, 16, 17, 18
-KLEAK, KSTOP, CSTOP, RPOLY, FIXED = 19, 20, 21, 22, 23
-ENV_ATTACHED, ENV_K, ENV_B, ENV_M, ENV_Z0 = 24, 25, 26, 27, 28
-STICK, FS, VST = 29, 30, 31            # Karnopp stick-slip on (1), static friction F_s, Stribeck velocity
-ENERGY, HA1, HA2 = 32, 33, 34          # chamber energy equation on (1), wall conductances h A (W/K)
-SPOOL_ORDER, SPOOL_W = 35, 36          # spool dynamics 0 (ideal), 1 or 2; bandwidth (rad/s)
-SP_A00, SP_A01, SP_A10, SP_A11 = 37, 38, 39, 40   # exact spool step matrix (filled per substep h)
-OX = 41                                # index of the first extra state (chamber masses, spool)
-T_AIR = 42                             # line (and wall) temperature T (K)
-N_COMMON = 43
 MAX_PRESSURE_PA = 1e8   # pressures beyond 1000 bar leave the models' range (runaway check)
 N_POLES = 8   # kernel poles per element (unsteady friction, heat transfer); fixed here, in this file,
               # so that changing it recompiles the cached stepper
 STOP_RESOLUTION = 0.15   # piston substep times the end stop's natural frequency while at a stop
 SPOOL_DAMPING = 1.0 / math.sqrt(2.0)   # second-order spool: -3 dB at the natural frequency
-# extra states after both side blocks: x[OX + s] chamber-node gas mass of side s (kg),
-# x[OX + 2] spool position (normalised command), x[OX + 3] its rate (1/s)
+# extra states after both side blocks: x[pc.ox + s] chamber-node gas mass of side s (kg),
+# x[pc.ox + 2] spool position (normalised command), x[pc.ox + 3] its rate (1/s)
 X_SPOOL, X_SPOOL_RATE = 2, 3
 N_EXTRA = 4
-# side parameters ps[s, ...]
-S_NN, S_INERT, S_BORE, S_LAW, S_UNSTEADY, S_THERMAL, S_DELAY, S_ATTEN, S_LEN = 0, 1, 2, 3, 4, 5, 6, 7, 8
-S_CONVECT, S_AREA, S_MACH_LIMIT = 9, 10, 11
-N_SIDE = 12
 LAW_RESISTIVE = 2   # friction law of the preliminary model (eqs 7-13): algebraic flow a (P_a - P_b)
 NU_TOL = 0.01   # relative viscosity change that triggers new relaxation factors
 # fast-math flags without no-NaN / no-Inf, so the runaway check still sees NaN and Inf
 FAST = {"nsz", "arcp", "contract", "afn", "reassoc"}
-# offsets off[s, ...]
-O_P, O_M, O_Y, O_W = 0, 1, 2, 3
-# accumulators acc[...] of one control period
-A_VALVE, A_CHAMBER, A_FORCE, A_MACH = 0, 2, 4, 5
-N_ACC = 7
+F8, I8, B1 = np.float64, np.int64, np.bool_
+
+# --- the named records of the kernel (numba structured types; every field in SI units) -------------
+#: Common parameters of the plant: gas (R T, viscosity, gamma, Prandtl), pressures, valve (ISO 6358 b,
+#: laminar ratio, k_ref), actuator (areas, stroke, dead volumes, mass, friction, leak, end stops,
+#: polytropic r or the energy equation), environment, spool dynamics (order 0 ideal, 1 or 2; its
+#: exact step matrix for the substep), the index of the first extra state and the line temperature.
+COMMON = np.dtype([
+    ("rt", F8), ("mu", F8), ("gamma", F8), ("prandtl", F8), ("p_atm", F8), ("p_supply", F8),
+    ("b_crit", F8), ("r_lam", F8), ("k_ref", F8),
+    ("area_1", F8), ("area_2", F8), ("area_rod", F8), ("stroke", F8), ("dead_1", F8), ("dead_2", F8),
+    ("mass", F8), ("viscous", F8), ("coulomb", F8), ("coulomb_velocity", F8), ("leak", F8),
+    ("stop_k", F8), ("stop_c", F8), ("polytropic", F8), ("fixed", B1),
+    ("env_attached", B1), ("env_k", F8), ("env_b", F8), ("env_m", F8), ("env_z0", F8),
+    ("stick", B1), ("static_friction", F8), ("stribeck_velocity", F8),
+    ("energy", B1), ("wall_ha", F8, (2,)),
+    ("spool_order", I8), ("spool_w", F8), ("spool_step", F8, (2, 2)),
+    ("ox", I8), ("t_air", F8)])
+#: One side's line: node count, inertance A/dx (m), bore, area, length, friction law, switches,
+#: transport delay (substeps), Mach limit, and the offsets of its pressures, flows, friction and
+#: heat-transfer states in the state vector.
+SIDE = np.dtype([
+    ("nn", I8), ("inertance", F8), ("bore", F8), ("area", F8), ("length", F8), ("law", I8),
+    ("unsteady", B1), ("thermal", B1), ("attenuation", B1), ("convective", B1), ("delay", I8),
+    ("mach_limit", F8), ("o_p", I8), ("o_m", I8), ("o_y", I8), ("o_w", I8)])
+#: What one control period accumulates per side: valve and chamber mass (kg), largest element
+#: Mach, largest exit-face Mach, choked, the element of the largest Mach; and the environment force (N).
+ACC = np.dtype([("valve", F8, (2,)), ("chamber", F8, (2,)), ("mach", F8, (2,)), ("exit_mach", F8, (2,)),
+                ("choked", I8, (2,)), ("element", I8, (2,)), ("force", F8)])   # numba: no bool subarrays
+#: One row of the loop's record: the period's mean valve and chamber flows (kg/s), peak element and
+#: exit-face Mach, choked (per side), the environment force (N), the command and the eight readings
+#: (MEASUREMENT_KEYS order).
+LOG = np.dtype([("valve", F8, (2,)), ("chamber", F8, (2,)), ("mach", F8, (2,)), ("exit_mach", F8, (2,)),
+                ("choked", F8, (2,)), ("force", F8), ("command", F8), ("meas", F8, (8,))])
+#: A compiled sensor (kind SENSOR_NOISY or SENSOR_ENCODER, noise, resolution or count; kind < 0:
+#: the sensors are read in Python) and a differentiating filter (y <- a y + b (x - x_prev)).
+SENSOR = np.dtype([("kind", F8), ("noise", F8), ("resolution", F8)])
+FILTER = np.dtype([("a", F8), ("b", F8), ("x_prev", F8), ("y", F8)])
+SENSOR_NOISY, SENSOR_ENCODER = 0.0, 1.0
+#: Everything :func:`control_period` needs besides the state, the node volumes and the valve table:
+#: substeps, their length, the control period, the runaway velocity, the Richer-Hurmuzlu ring head,
+#: the state indices of the four sensed pressures, the plant's records and the kernel poles.
+LOOP = np.dtype([("nsub", I8), ("h", F8), ("dt", F8), ("vmax", F8), ("head", I8), ("p_read", I8, (4,)),
+                 ("pc", COMMON), ("ps", SIDE, (2,)), ("kn", F8, (N_POLES,)), ("km", F8, (N_POLES,)),
+                 ("ka", F8, (N_POLES,))])
+
+
+def record(dtype: np.dtype, n: int | None = None) -> np.ndarray:
+    """A zeroed record (shape (1,)) or n records of ``dtype``.  The compiled entry points take
+    them as byte views (:func:`as_bytes`) and read them back with ``.view(DTYPE)``: a plain byte
+    array costs numba's dispatcher far less than a structured one."""
+    return np.zeros(1 if n is None else n, dtype)
+
+
+def as_bytes(records: np.ndarray) -> np.ndarray:
+    """The bytes of ``records`` (a view: the kernel writes through it)."""
+    return records.view(np.uint8)
 
 
 @njit(cache=True)
@@ -109,22 +149,22 @@ def steady_coefficient(mdot, nu, bore, law, mu):
 @njit(cache=True)
 def rh_attenuation(mdot, pressure, pc, ps_s):
     """Richer-Hurmuzlu attenuation factor exp(-R_t R T L / (2 P c)) (eqs 4-5)."""
-    bore = ps_s[S_BORE]
-    re = 4.0 * abs(mdot) / (math.pi * bore * pc[MU])
+    bore = ps_s.bore
+    re = 4.0 * abs(mdot) / (math.pi * bore * pc.mu)
     coef = 32.0 if re <= 2300.0 else 0.158 * pow075(re)
-    rt = coef * pc[MU] / (bore * bore)
-    c = math.sqrt(pc[GAMMA] * pc[RT])
-    return math.exp(-rt * pc[RT] * ps_s[S_LEN] / (2.0 * max(pressure, 1.0) * c))
+    rt = coef * pc.mu / (bore * bore)
+    c = math.sqrt(pc.gamma * pc.rt)
+    return math.exp(-rt * pc.rt * ps_s.length / (2.0 * max(pressure, 1.0) * c))
 
 
 @njit(cache=True)
 def resistive_conductance(valve_flow, p_port, pc, ps_s):
     """a = rho A / (L R_t) of eq 10 (kg/(s Pa)): rho from the valve-port pressure (eq 11), R_t of
     eq 5 at the Reynolds number of the valve flow at that pressure (the preliminary model)."""
-    bore = ps_s[S_BORE]
-    re = 4.0 * abs(valve_flow) / (math.pi * bore * pc[MU])
+    bore = ps_s.bore
+    re = 4.0 * abs(valve_flow) / (math.pi * bore * pc.mu)
     coef = 32.0 if re <= 2300.0 else 0.158 * pow075(re)
-    return (p_port / pc[RT]) * ps_s[S_AREA] / (ps_s[S_LEN] * coef * pc[MU] / (bore * bore))
+    return (p_port / pc.rt) * ps_s.area / (ps_s.length * coef * pc.mu / (bore * bore))
 
 
 @njit(cache=True)
@@ -139,13 +179,62 @@ def end_thrust(m, p, area, rt):
 
 
 @njit(cache=True)
-def face_thrusts(x, op, om, nn, area, rt, phi):
+def entrance_choked(sonic, p0, gam):
+    """Whether a node at stagnation pressure p0 cannot feed a tube face at its isothermal sonic
+    pressure ``sonic``: p0 <= sonic (1 + (gamma - 1) / (2 gamma))^(gamma / (gamma - 1)) (the
+    isentropic relation of :func:`entrance_pressure` at M = 1 / sqrt(gamma))."""
+    return p0 <= sonic * (1.0 + 0.5 * (gam - 1.0) / gam) ** (gam / (gam - 1.0))
+
+
+@njit(cache=True)
+def entrance_pressure(m, p0, area, rt, gam):
+    """Static pressure (Pa) of the tube face a flow |m| (kg/s) enters from a node at stagnation
+    pressure p0: isentropic, p0 = p (1 + (gamma - 1)/2 M^2)^(gamma/(gamma - 1)), with the face Mach
+    M = |m| R T / (A p sqrt(gamma R T)) at the line temperature (the convention of an isothermal
+    line; Shapiro 1953, ch. 4 and 6).  Newton from p0 (the residual is increasing and convex above
+    the isothermal sonic pressure |m| sqrt(R T) / A); a flow the node cannot feed at that face
+    (the entrance chokes) gets the sonic pressure."""
+    g = abs(m) / area
+    if g == 0.0:
+        return p0
+    a = 0.5 * (gam - 1.0) / gam * g * g * rt
+    k = gam / (gam - 1.0)
+    sonic = g * math.sqrt(rt)
+    if entrance_choked(sonic, p0, gam):
+        return sonic
+    p = p0
+    for _ in range(30):
+        q = a / (p * p)
+        base = 1.0 + q
+        f = p * base**k - p0
+        df = base ** (k - 1.0) * (1.0 - (2.0 * k - 1.0) * q)
+        step = f / df
+        p -= step
+        if abs(step) <= 1e-12 * p0:
+            break
+    return max(p, sonic)
+
+
+@njit(cache=True)
+def face_pressure(m_out, p_node, area, rt, gam):
+    """Static pressure (Pa) at a tube end face whose flow m_out (kg/s) leaves the node when > 0:
+    the isentropic entrance from the node's stagnation state (:func:`entrance_pressure`); a flow
+    into the node leaves the tube as a jet at the node pressure (the dump loss)."""
+    if m_out > 0.0:
+        return entrance_pressure(m_out, p_node, area, rt, gam)
+    return p_node
+
+
+@njit(cache=True)
+def face_thrusts(x, op, om, nn, area, rt, gam, phi):
     """Thrust (A P + momentum flux, N) at every node face of a segmented tube into phi[:nn].
 
     Interior nodes carry the momentum of the upwind element at the mean node flow (donor cell);
-    the two end faces carry their element's flow at the node density (:func:`end_thrust`)."""
-    phi[0] = end_thrust(x[om], x[op], area, rt)
-    phi[nn - 1] = end_thrust(x[om + nn - 2], x[op + nn - 1], area, rt)
+    the two end faces carry their element's flow at the face pressure (:func:`face_pressure`,
+    :func:`end_thrust`)."""
+    m0, m1 = x[om], x[om + nn - 2]
+    phi[0] = end_thrust(m0, face_pressure(m0, x[op], area, rt, gam), area, rt)
+    phi[nn - 1] = end_thrust(m1, face_pressure(-m1, x[op + nn - 1], area, rt, gam), area, rt)
     for k in range(1, nn - 1):
         ma, mb = x[om + k - 1], x[om + k]
         mean = 0.5 * (ma + mb)
@@ -166,20 +255,35 @@ def element_mach(m, pa, pb, first, last, area, rt, c2):
 
 
 @njit(cache=True)
+def exit_face(m, sign, p_node, area, rt, c2, gam, acc, s):
+    """Record the Mach number of a tube end face the flow leaves (sign m > 0: element flow m with
+    sign +1 at the chamber end, -1 at the valve end) in acc.exit_mach[s], and a choked end (the jet
+    at the isothermal sonic speed sqrt(R T), its pressure above the node's, or a choked entrance)
+    in acc.choked[s]."""
+    sonic = abs(m) * math.sqrt(rt) / area
+    if sign * m > 0.0:
+        acc.exit_mach[s] = max(acc.exit_mach[s], abs(m) * rt / (area * max(p_node, sonic) * math.sqrt(c2)))
+        if sonic > p_node:
+            acc.choked[s] = 1
+    elif sign * m < 0.0 and entrance_choked(sonic, p_node, gam):
+        acc.choked[s] = 1
+
+
+@njit(cache=True)
 def chamber_volumes(z, v, pc):
-    """(V1, V2, dV1/dt, dV2/dt) of the actuator chambers (fixed chambers when pc[FIXED])."""
-    if pc[FIXED] > 0.5:
-        return pc[VD1], pc[VD2], 0.0, 0.0
-    return pc[VD1] + pc[A1] * z, pc[VD2] + pc[A2] * (pc[STROKE] - z), pc[A1] * v, -pc[A2] * v
+    """(V1, V2, dV1/dt, dV2/dt) of the actuator chambers (fixed chambers when pc.fixed)."""
+    if pc.fixed:
+        return pc.dead_1, pc.dead_2, 0.0, 0.0
+    return pc.dead_1 + pc.area_1 * z, pc.dead_2 + pc.area_2 * (pc.stroke - z), pc.area_1 * v, -pc.area_2 * v
 
 
 @njit(cache=True)
 def sliding_friction(v, pc):
     """Dry friction magnitude (N) while sliding at v: Coulomb F_c, plus the Stribeck rise to the
     static friction F_s at low speed when stick-slip is on, F_c + (F_s - F_c) exp(-(v / v_st)^2)."""
-    if pc[STICK] > 0.5:
-        return pc[FC] + (pc[FS] - pc[FC]) * math.exp(-(v / pc[VST]) ** 2)
-    return pc[FC]
+    if pc.stick:
+        return pc.coulomb + (pc.static_friction - pc.coulomb) * math.exp(-(v / pc.stribeck_velocity) ** 2)
+    return pc.coulomb
 
 
 @njit(cache=True)
@@ -188,98 +292,98 @@ def piston_forces(z, v, p1, p2, pc, dry=True):
 
     dry: include the dry friction, smoothed as F(v) tanh(v / v_s) (eq 18's Coulomb term with the
     Stribeck curve of :func:`sliding_friction`); the stepper handles stick-slip itself (dry=False)."""
-    fp = p1 * pc[A1] - p2 * pc[A2] - pc[PATM] * pc[AROD]
-    f = fp - pc[VISC] * v
+    fp = p1 * pc.area_1 - p2 * pc.area_2 - pc.p_atm * pc.area_rod
+    f = fp - pc.viscous * v
     fz = 0.0
-    fv = -pc[VISC]
+    fv = -pc.viscous
     if dry:
-        th = math.tanh(v / pc[VS])
+        th = math.tanh(v / pc.coulomb_velocity)
         fd = sliding_friction(v, pc)
         f -= fd * th
-        fv -= fd * (1.0 - th * th) / pc[VS]
+        fv -= fd * (1.0 - th * th) / pc.coulomb_velocity
     fe = 0.0
-    if pc[ENV_ATTACHED] > 0.5:
-        fe = pc[ENV_K] * (z - pc[ENV_Z0]) + pc[ENV_B] * v
+    if pc.env_attached:
+        fe = pc.env_k * (z - pc.env_z0) + pc.env_b * v
         f -= fe
-        fz -= pc[ENV_K]
-        fv -= pc[ENV_B]
-    elif z > pc[ENV_Z0] and (pc[ENV_K] > 0.0 or pc[ENV_B] > 0.0):
-        fe = pc[ENV_K] * (z - pc[ENV_Z0]) + pc[ENV_B] * v
+        fz -= pc.env_k
+        fv -= pc.env_b
+    elif z > pc.env_z0 and (pc.env_k > 0.0 or pc.env_b > 0.0):
+        fe = pc.env_k * (z - pc.env_z0) + pc.env_b * v
         if fe > 0.0:
             f -= fe
-            fz -= pc[ENV_K]
-            fv -= pc[ENV_B]
+            fz -= pc.env_k
+            fv -= pc.env_b
         else:
             fe = 0.0
     if z < 0.0:
-        f += -pc[KSTOP] * z - pc[CSTOP] * v
-        fz -= pc[KSTOP]
-        fv -= pc[CSTOP]
-    elif z > pc[STROKE]:
-        f += -pc[KSTOP] * (z - pc[STROKE]) - pc[CSTOP] * v
-        fz -= pc[KSTOP]
-        fv -= pc[CSTOP]
+        f += -pc.stop_k * z - pc.stop_c * v
+        fz -= pc.stop_k
+        fv -= pc.stop_c
+    elif z > pc.stroke:
+        f += -pc.stop_k * (z - pc.stroke) - pc.stop_c * v
+        fz -= pc.stop_k
+        fv -= pc.stop_c
     return f, fz, fv, fe
 
 
 @njit(cache=True)
 def chamber_dp(p, mass, flow, vol, dvol, s, pc):
-    """dP/dt of a chamber node: eq 15 with exponent r, or (pc[ENERGY]) the energy equation
+    """dP/dt of a chamber node: eq 15 with exponent r, or (pc.energy) the energy equation
     V dP/dt = gamma R T_in m_dot - gamma P dV/dt + (gamma - 1) h A (T_w - T), T = P V / (m R),
     where inflow enters at the line temperature and outflow leaves at the chamber's own T."""
-    rt = pc[RT]
-    if pc[ENERGY] > 0.5:
-        gam = pc[GAMMA]
-        t_ch = p * vol / (mass * (rt / pc[T_AIR]))
-        rt_in = rt if flow >= 0.0 else rt * t_ch / pc[T_AIR]
-        ha = pc[HA1] if s == 0 else pc[HA2]
-        return (gam * rt_in * flow - gam * p * dvol + (gam - 1.0) * ha * (pc[T_AIR] - t_ch)) / vol
-    r = pc[RPOLY]
+    rt = pc.rt
+    if pc.energy:
+        gam = pc.gamma
+        t_ch = p * vol / (mass * (rt / pc.t_air))
+        rt_in = rt if flow >= 0.0 else rt * t_ch / pc.t_air
+        ha = pc.wall_ha[s]
+        return (gam * rt_in * flow - gam * p * dvol + (gam - 1.0) * ha * (pc.t_air - t_ch)) / vol
+    r = pc.polytropic
     return r * (rt * flow - p * dvol) / vol
 
 
 @njit(cache=True)
-def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
+def rhs(x, u, pc, ps, pv, kn, km, ka, grid, csup, cexh, hold0):
     """Continuous time derivative of the plant state (no transport delay).
 
     hold0: keep the first node of each side at its value (pressure imposed, for the
     linearised frequency response of a line)."""
     dx = np.zeros_like(x)
-    rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
+    rt, mu, gam = pc.rt, pc.mu, pc.gamma
     kappa = (gam - 1.0) / gam
     kk = kn.size
-    ox = int(pc[OX])
+    ox = pc.ox
     z, v = x[0], x[1]
     vol1, vol2, dv1, dv2 = chamber_volumes(z, v, pc)
     pch = np.empty(2)
     for s in range(2):
-        pch[s] = x[off[s, O_P] + int(ps[s, S_NN]) - 1]
-    if pc[FIXED] < 0.5:
+        pch[s] = x[ps[s].o_p + ps[s].nn - 1]
+    if not pc.fixed:
         f, _, _, _ = piston_forces(z, v, pch[0], pch[1], pc)
         dx[0] = v
-        dx[1] = f / (pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0))
-    leak = pc[KLEAK] * (pch[0] - pch[1]) if pc[FIXED] < 0.5 else 0.0
+        dx[1] = f / (pc.mass + (pc.env_m if pc.env_attached else 0.0))
+    leak = pc.leak * (pch[0] - pch[1]) if not pc.fixed else 0.0
     us = u
-    if pc[SPOOL_ORDER] > 0.5:
+    if pc.spool_order > 0.5:
         us = x[ox + X_SPOOL]
-        w = pc[SPOOL_W]
-        if pc[SPOOL_ORDER] < 1.5:
+        w = pc.spool_w
+        if pc.spool_order < 1.5:
             dx[ox + X_SPOOL] = w * (u - us)
         else:
             dx[ox + X_SPOOL] = x[ox + X_SPOOL_RATE]
             dx[ox + X_SPOOL_RATE] = w * w * (u - us) - SPOOL_DAMPING * 2.0 * w * x[ox + X_SPOOL_RATE]
-    phi = np.empty(int(ps[:, S_NN].max()))
+    phi = np.empty(max(ps[0].nn, ps[1].nn))
     for s in range(2):
-        nn = int(ps[s, S_NN])
-        op, om, oy, ow = off[s, O_P], off[s, O_M], off[s, O_Y], off[s, O_W]
-        bore = ps[s, S_BORE]
-        uns = ps[s, S_UNSTEADY] > 0.5
-        the = ps[s, S_THERMAL] > 0.5
+        nn = ps[s].nn
+        op, om, oy, ow = ps[s].o_p, ps[s].o_m, ps[s].o_y, ps[s].o_w
+        bore = ps[s].bore
+        uns = ps[s].unsteady
+        the = ps[s].thermal
         sgn = 1.0 if s == 0 else -1.0
-        mv, _ = port_flow(sgn * us, grid, csup, cexh, pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[PATM], pc[KREF])
-        resistive = ps[s, S_LAW] == LAW_RESISTIVE
-        if ps[s, S_CONVECT] > 0.5 and nn > 1:
-            face_thrusts(x, op, om, nn, ps[s, S_AREA], rt, phi)
+        mv, _ = port_flow(sgn * us, grid, csup, cexh, pc.b_crit, pc.r_lam, pc.p_supply, x[op], pc.p_atm, pc.k_ref)
+        resistive = ps[s].law == LAW_RESISTIVE
+        if ps[s].convective and nn > 1:
+            face_thrusts(x, op, om, nn, ps[s].area, rt, gam, phi)
         flows = np.empty(max(nn - 1, 1))
         for j in range(nn - 1):
             pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
@@ -288,15 +392,15 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
                 continue
             flows[j] = m
             nu = mu * 2.0 * rt / (pa + pb)
-            fric = steady_coefficient(m, nu, bore, ps[s, S_LAW], mu) * m
+            fric = steady_coefficient(m, nu, bore, ps[s].law, mu) * m
             if uns:
                 c16 = 16.0 * nu / (bore * bore)
                 for i in range(kk):
                     fric += c16 * km[i] * x[oy + j * kk + i]
-            if ps[s, S_CONVECT] > 0.5:
-                dm = ps[s, S_INERT] / ps[s, S_AREA] * (phi[j] - phi[j + 1]) - fric
+            if ps[s].convective:
+                dm = ps[s].inertance / ps[s].area * (phi[j] - phi[j + 1]) - fric
             else:
-                dm = ps[s, S_INERT] * (pa - pb) - fric
+                dm = ps[s].inertance * (pa - pb) - fric
             dx[om + j] = dm
             if uns:
                 for i in range(kk):
@@ -309,7 +413,7 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
             if k < nn - 1:
                 flow -= flows[k]
             if k == 0:
-                if ps[s, S_ATTEN] > 0.5:
+                if ps[s].attenuation:
                     flow += mv * rh_attenuation(mv, x[op], pc, ps[s])
                 else:
                     flow += mv
@@ -323,7 +427,7 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
                 nu = mu * rt / p
                 sumw = 0.0
                 for i in range(kk):
-                    sumw += ka[i] * (4.0 * nu * kn[i] / (pc[PR] * bore * bore)) * x[ow + k * kk + i]
+                    sumw += ka[i] * (4.0 * nu * kn[i] / (pc.prandtl * bore * bore)) * x[ow + k * kk + i]
                 dp = gam * (rt * flow / pv[s, k] - kappa * sumw)
             else:
                 dp = rt * flow / pv[s, k]
@@ -333,7 +437,7 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
             if the and k < nn - 1:
                 nu = mu * rt / p
                 for i in range(kk):
-                    b = 4.0 * nu * kn[i] / (pc[PR] * bore * bore)
+                    b = 4.0 * nu * kn[i] / (pc.prandtl * bore * bore)
                     dx[ow + k * kk + i] = dp - b * x[ow + k * kk + i]
     return dx
 
@@ -342,17 +446,17 @@ def rhs(x, u, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, hold0):
 def spool_step(x, u, pc):
     """Advance the spool state by one substep (exact for the held command) and return the spool
     position; with ideal spool dynamics the position is the command itself."""
-    ox = int(pc[OX])
-    order = pc[SPOOL_ORDER]
+    ox = pc.ox
+    order = pc.spool_order
     if order < 0.5:
         x[ox + X_SPOOL] = u
         return u
     y, r = x[ox + X_SPOOL] - u, x[ox + X_SPOOL_RATE]
     if order < 1.5:
-        x[ox + X_SPOOL] = u + pc[SP_A00] * y
+        x[ox + X_SPOOL] = u + pc.spool_step[0, 0] * y
         return x[ox + X_SPOOL]
-    x[ox + X_SPOOL] = u + pc[SP_A00] * y + pc[SP_A01] * r
-    x[ox + X_SPOOL_RATE] = pc[SP_A10] * y + pc[SP_A11] * r
+    x[ox + X_SPOOL] = u + pc.spool_step[0, 0] * y + pc.spool_step[0, 1] * r
+    x[ox + X_SPOOL_RATE] = pc.spool_step[1, 0] * y + pc.spool_step[1, 1] * r
     return x[ox + X_SPOOL]
 
 
@@ -363,17 +467,17 @@ def piston_step(x, h, kick, p_c1, p_c2, pc, mass_eff):
     a substep ahead of the position) by the force at the old position and chamber pressures,
     with the damping at the mean of old and new velocity and the stiffness at the average
     position of Newmark's beta = 1/4 (unconditionally stable against the stiff end stops, second
-    order); then z advances by h at the new velocity.  Karnopp stick-slip when pc[STICK]: at rest
+    order); then z advances by h at the new velocity.  Karnopp stick-slip when pc.stick: at rest
     the piston stays stuck while the applied force is within the static friction F_s, and a
     sliding piston whose velocity would change sign in the step stops (sticks) instead."""
     z, v = x[0], x[1]
-    if pc[STICK] < 0.5:
+    if not pc.stick:
         f, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, True)
         vn = v + kick / mass_eff * f / (1.0 - kick / mass_eff * (0.25 * fz * h + 0.5 * fv))
     else:
         fa, fz, fv, _ = piston_forces(z, v, p_c1, p_c2, pc, False)
         if v == 0.0:
-            if abs(fa) <= pc[FS]:
+            if abs(fa) <= pc.static_friction:
                 return
             d = 1.0 if fa > 0.0 else -1.0
         else:
@@ -387,25 +491,27 @@ def piston_step(x, h, kick, p_c1, p_c2, pc, mass_eff):
 
 
 @njit(cache=True, fastmath=FAST)
-def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work,
+def advance(x, u, nsub, h, pc, ps, pv, kn, km, ka, grid, csup, cexh, ring, head, acc, vmax, work,
             start=False):
     """Advance the state x in place by nsub substeps of h seconds at valve command u.
 
-    ring[s, :] holds past valve flows of a Richer-Hurmuzlu side (delay ps[s, S_DELAY] substeps,
-    head the current ring index, returned updated).  acc[A_VALVE + s] accumulates the valve mass
-    (kg) delivered into side s, acc[A_CHAMBER + s] the mass delivered into its chamber; acc[A_FORCE]
-    is the environment force F_e (N) at the end of the step and acc[A_MACH + s] the largest Mach
-    number |m| R T / (A P c) of side s's flow elements during the step.  work: scratch of shape (2, nodes, 6 K + 7),
+    ring[s, :] holds past valve flows of a Richer-Hurmuzlu side (delay ps[s].delay substeps,
+    head the current ring index, returned updated).  acc.valve[s] accumulates the valve mass
+    (kg) delivered into side s, acc.chamber[s] the mass delivered into its chamber; acc.force
+    is the environment force F_e (N) at the end of the step, acc.mach[s] the largest Mach
+    number |m| R T / (A P c) of side s's flow elements during the step (acc.element[s] which),
+    acc.exit_mach[s] and acc.choked[s] those of its end faces (:func:`exit_face`); acc is an ACC
+    record, pc a COMMON record, ps the two SIDE records.  work: scratch of shape (2, nodes, 6 K + 7),
     zero on the first call (see :func:`work_array`).  start: this is the first step of a run (the
     piston's first kick is a half kick, see :func:`piston_step`).  Returns (head, index of the
     first non-finite or runaway state or -1, see :func:`first_bad`)."""
-    rt, mu, gam = pc[RT], pc[MU], pc[GAMMA]
+    rt, mu, gam = pc.rt, pc.mu, pc.gamma
     kappa = (gam - 1.0) / gam
     c2 = gam * rt
     kk = N_POLES   # kn.size, fixed at compile time so the loops over the poles unroll and vectorise
-    ox = int(pc[OX])
+    ox = pc.ox
     nring = ring.shape[1]
-    mass_eff = pc[MASS] + (pc[ENV_M] if pc[ENV_ATTACHED] > 0.5 else 0.0)
+    mass_eff = pc.mass + (pc.env_m if pc.env_attached else 0.0)
     # relaxation factors e = exp(-beta h) and phi = (1 - e) / (beta h) of each element (friction)
     # and tube node (heat transfer), and the sums the steps need, kept in work[s, j] and recomputed
     # only when the local kinematic viscosity has moved by more than NU_TOL since they were computed
@@ -416,9 +522,9 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
     ch = 5 * kk                        # kappa a_i (e_i - 1): weight of w_i in the node update
     w0 = 6 * kk                        # scalars: nu_f, nu_t, h_f, h_t, thrust, extra, sum a_i phi_i
     for s in range(2):
-        op = off[s, O_P]
-        d2 = ps[s, S_BORE] * ps[s, S_BORE]
-        for j in range(int(ps[s, S_NN]) - 1):
+        op = ps[s].o_p
+        d2 = ps[s].bore * ps[s].bore
+        for j in range(ps[s].nn - 1):
             nu = mu * 2.0 * rt / (x[op + j] + x[op + j + 1])
             if abs(nu - work[s, j, w0]) > NU_TOL * nu or work[s, j, w0 + 2] != h:
                 work[s, j, w0] = nu
@@ -438,20 +544,22 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                 work[s, j, w0 + 3] = h
                 sa = 0.0
                 for i in range(kk):
-                    bh = 4.0 * nu * kn[i] / (pc[PR] * d2) * h
+                    bh = 4.0 * nu * kn[i] / (pc.prandtl * d2) * h
                     work[s, j, et + i] = math.exp(-bh)
                     work[s, j, pt + i] = -math.expm1(-bh) / bh
                     work[s, j, ch + i] = kappa * ka[i] * (work[s, j, et + i] - 1.0)
                     sa += ka[i] * work[s, j, pt + i]
                 work[s, j, w0 + 6] = sa
     cond = np.empty((2, 2))   # (side, supply / exhaust) conductance at this command
-    spool = pc[SPOOL_ORDER] > 0.5
+    spool = pc.spool_order > 0.5
     for s in range(2):
         us = u if s == 0 else -u
         cond[s, 0] = interp1(us, grid, csup)
         cond[s, 1] = interp1(us, grid, cexh)
-    acc[A_MACH] = 0.0
-    acc[A_MACH + 1] = 0.0
+    acc.mach[:] = 0.0
+    acc.exit_mach[:] = 0.0
+    acc.choked[:] = 0
+    acc.element[:] = 0
     for _ in range(nsub):
         if spool:
             ua = spool_step(x, u, pc)
@@ -462,17 +570,17 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
         else:
             x[ox + X_SPOOL] = u
         vol1, vol2, _, _ = chamber_volumes(x[0], x[1], pc)
-        p_c1 = x[off[0, O_P] + int(ps[0, S_NN]) - 1]
-        p_c2 = x[off[1, O_P] + int(ps[1, S_NN]) - 1]
+        p_c1 = x[ps[0].o_p + ps[0].nn - 1]
+        p_c2 = x[ps[1].o_p + ps[1].nn - 1]
         # (1) piston
-        if pc[FIXED] < 0.5:
+        if not pc.fixed:
             v = x[1]
             kick = 0.5 * h if start else h
             start = False
             zp = x[0] + h * x[1]
-            if min(x[0], zp) < 0.0 or max(x[0], zp) > pc[STROKE]:
+            if min(x[0], zp) < 0.0 or max(x[0], zp) > pc.stroke:
                 # at an end stop: substeps resolving the stop's own oscillation
-                nst = max(1, math.ceil(h * math.sqrt(pc[KSTOP] / mass_eff) / STOP_RESOLUTION))
+                nst = max(1, math.ceil(h * math.sqrt(pc.stop_k / mass_eff) / STOP_RESOLUTION))
                 hs = h / nst
                 for r in range(nst):
                     piston_step(x, hs, 0.5 * hs if (r == 0 and kick < h) else hs, p_c1, p_c2, pc, mass_eff)
@@ -480,34 +588,34 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
             else:
                 piston_step(x, h, kick, p_c1, p_c2, pc, mass_eff)
             _, _, _, fe = piston_forces(x[0], x[1], p_c1, p_c2, pc, True)
-            acc[A_FORCE] = fe + (pc[ENV_M] * (x[1] - v) / kick if pc[ENV_ATTACHED] > 0.5 else 0.0)
+            acc.force = fe + (pc.env_m * (x[1] - v) / kick if pc.env_attached else 0.0)
         nvol1, nvol2, _, _ = chamber_volumes(x[0], x[1], pc)
-        leak = pc[KLEAK] * (p_c1 - p_c2) if pc[FIXED] < 0.5 else 0.0
+        leak = pc.leak * (p_c1 - p_c2) if not pc.fixed else 0.0
         head = (head + 1) % nring
         for s in range(2):
-            nn = int(ps[s, S_NN])
-            op, om, oy, ow = off[s, O_P], off[s, O_M], off[s, O_Y], off[s, O_W]
-            bore = ps[s, S_BORE]
-            area = ps[s, S_AREA]
-            uns = ps[s, S_UNSTEADY] > 0.5
-            the = ps[s, S_THERMAL] > 0.5
-            m_in, _, din = orifice_flow(cond[s, 0], pc[BCRIT], pc[RLAM], pc[PSUP], x[op], pc[KREF])
-            m_out, dout, _ = orifice_flow(cond[s, 1], pc[BCRIT], pc[RLAM], x[op], pc[PATM], pc[KREF])
+            nn = ps[s].nn
+            op, om, oy, ow = ps[s].o_p, ps[s].o_m, ps[s].o_y, ps[s].o_w
+            bore = ps[s].bore
+            area = ps[s].area
+            uns = ps[s].unsteady
+            the = ps[s].thermal
+            m_in, _, din = orifice_flow(cond[s, 0], pc.b_crit, pc.r_lam, pc.p_supply, x[op], pc.k_ref)
+            m_out, dout, _ = orifice_flow(cond[s, 1], pc.b_crit, pc.r_lam, x[op], pc.p_atm, pc.k_ref)
             mv, dmv = m_in - m_out, din - dout
             mach = 0.0
             # (2) element flows
-            if ps[s, S_LAW] == LAW_RESISTIVE:
+            if ps[s].law == LAW_RESISTIVE:
                 a = resistive_conductance(mv, x[op], pc, ps[s])
                 for j in range(nn - 1):
                     x[om + j] = a * (x[op + j] - x[op + j + 1])
             else:
-                convect = ps[s, S_CONVECT] > 0.5
+                convect = ps[s].convective
                 if convect:
-                    face_thrusts(x, op, om, nn, area, rt, work[s, :, w0 + 4])
-                inert = ps[s, S_INERT]
+                    face_thrusts(x, op, om, nn, area, rt, gam, work[s, :, w0 + 4])
+                inert = ps[s].inertance
                 for j in range(nn - 1):
                     pa, pb, m = x[op + j], x[op + j + 1], x[om + j]
-                    fs = steady_coefficient(m, mu * 2.0 * rt / (pa + pb), bore, ps[s, S_LAW], mu)
+                    fs = steady_coefficient(m, mu * 2.0 * rt / (pa + pb), bore, ps[s].law, mu)
                     if convect:
                         drive = inert / area * (work[s, j, w0 + 4] - work[s, j + 1, w0 + 4])
                     else:
@@ -524,16 +632,22 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                         for i in range(kk):
                             x[oy + j * kk + i] = x[oy + j * kk + i] * work[s, j, ef + i] + dmn * work[s, j, pf + i]
             for j in range(nn - 1):
-                mach = max(mach, element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2,
-                                              area, rt, c2))
-            acc[A_MACH + s] = max(acc[A_MACH + s], mach)
+                mj = element_mach(x[om + j], x[op + j], x[op + j + 1], j == 0, j == nn - 2, area, rt, c2)
+                if mj > mach:
+                    mach = mj
+                    if mj > acc.mach[s]:
+                        acc.element[s] = j
+            acc.mach[s] = max(acc.mach[s], mach)
+            if nn > 1 and ps[s].convective:
+                exit_face(x[om], -1.0, x[op], area, rt, c2, gam, acc, s)
+                exit_face(x[om + nn - 2], 1.0, x[op + nn - 1], area, rt, c2, gam, acc, s)
             # (3) nodes
-            delayed = ps[s, S_ATTEN] > 0.5
+            delayed = ps[s].attenuation
             if delayed:
                 ring[s, head] = mv
-                md = ring[s, (head - int(ps[s, S_DELAY])) % nring]
+                md = ring[s, (head - ps[s].delay) % nring]
                 into_chamber = md * rh_attenuation(md, x[op], pc, ps[s])
-                acc[A_VALVE + s] += h * mv
+                acc.valve[s] += h * mv
             for k in range(nn):
                 flow = 0.0
                 if k > 0:
@@ -556,8 +670,8 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                     dm = h * (flow + g * (pn - p))
                     x[ox + s] += dm
                     if k == 0:
-                        acc[A_VALVE + s] += h * (mv + g * (pn - p)) if not delayed else 0.0
-                    acc[A_CHAMBER + s] += dm + h * (leak if s == 0 else -leak)
+                        acc.valve[s] += h * (mv + g * (pn - p)) if not delayed else 0.0
+                    acc.chamber[s] += dm + h * (leak if s == 0 else -leak)
                 else:
                     cap = pv[s, k] / rt
                     rhs_ = h * flow
@@ -573,29 +687,19 @@ def advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, 
                         dp = rhs_ / (cap - h * g)
                     pn = p + dp
                     if k == 0:
-                        acc[A_VALVE + s] += h * (mv + g * dp)
+                        acc.valve[s] += h * (mv + g * dp)
                 x[op + k] = pn
-    return head, first_bad(x, off, ps, vmax)
+    return head, first_bad(x, ps, vmax)
 
 
-# sensor kinds of the compiled readings (sens[i, 0], i < 6); sens[i, 1] noise, sens[i, 2] resolution
-# or count; sens[6 + i] = a, b, x_prev, y of the two differentiating filters
-SENSOR_NOISY, SENSOR_ENCODER = 0.0, 1.0
-# columns of the loop's record log[k, ...]: valve flows, chamber flows, peak Mach (two sides each),
-# environment force, command, the eight readings (MEASUREMENT_KEYS order)
-L_VALVE, L_CHAMBER, L_MACH, L_FORCE, L_COMMAND, L_MEAS = 0, 2, 4, 6, 7, 8
-N_LOG = 16
-N_HEAD = 6   # blob header: nsub, h, dt, vmax, node slots (pv's columns), valve grid points
-
-
-def pack_loop(nsub, h, dt, vmax, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, p_read):
-    """(blob, ints) for :func:`control_period`: every parameter of the loop in one float array and
-    the state offsets, the sensed state indices and the ring head in one integer array (fewer
-    arguments make the per-period call from Python cheaper)."""
-    head = np.array([nsub, h, dt, vmax, pv.shape[1], grid.size], float)
-    blob = np.concatenate([head, pc, ps.ravel(), pv.ravel(), kn, km, ka, grid, csup, cexh])
-    ints = np.concatenate([off.ravel(), p_read, [0]]).astype(np.int64)
-    return blob, ints
+def pack_loop(nsub, h, dt, vmax, pc, ps, kn, km, ka, p_read):
+    """The LOOP record of :func:`control_period` (one argument for all of it: fewer arguments make
+    the per-period call from Python cheaper)."""
+    loop = record(LOOP)
+    r = loop[0]
+    r["nsub"], r["h"], r["dt"], r["vmax"], r["p_read"] = nsub, h, dt, vmax, p_read
+    r["pc"], r["ps"], r["kn"], r["km"], r["ka"] = pc[0], ps, kn, km, ka
+    return loop
 
 
 @njit(cache=True)
@@ -612,68 +716,66 @@ def sensor_read(value, kind, noise, resolution, draw):
 
 
 @njit(cache=True)
-def read_sensors(k, z, force, p1, p2, p3, p4, sens, noise, log):
-    """Row k of the readings log[k, L_MEAS:] (MEASUREMENT_KEYS order) from the raw position, force
+def read_sensors(k, z, force, p1, p2, p3, p4, sens_b, filt_b, noise, log_b):
+    """Row k of the readings log[k].meas (MEASUREMENT_KEYS order) from the raw position, force
     and pressures: the six sensors of ``sens`` with the pre-drawn noise[k], and the two
-    DifferentiatingFilter recursions (sens[6 + i] = a, b, x_prev, y) for velocity and
-    acceleration, started at k = 0."""
+    DifferentiatingFilter recursions of ``filt`` for velocity and acceleration, started at k = 0
+    (the records as byte views, :func:`as_bytes`)."""
+    sens, filt, log = sens_b.view(SENSOR), filt_b.view(FILTER), log_b.view(LOG)
     raw = (z, force, p1, p2, p3, p4)
-    meas = log[k, L_MEAS:]
+    meas = log[k].meas
     for i in range(6):
-        meas[2 + i if i > 0 else 0] = sensor_read(raw[i], sens[i, 0], sens[i, 1], sens[i, 2], noise[k, i])
+        meas[2 + i if i > 0 else 0] = sensor_read(raw[i], sens[i].kind, sens[i].noise, sens[i].resolution,
+                                                  noise[k, i])
     x = meas[0]
-    for i in range(6, 8):
+    for i in range(2):
+        f = filt[i]
         if k == 0:
-            sens[i, 2] = x
-        sens[i, 3] = sens[i, 0] * sens[i, 3] + sens[i, 1] * (x - sens[i, 2])
-        sens[i, 2] = x
-        x = sens[i, 3]
-        meas[i - 5] = x
+            f.x_prev = x
+        f.y = f.a * f.y + f.b * (x - f.x_prev)
+        f.x_prev = x
+        x = f.y
+        meas[i + 1] = x
 
 
 @njit(cache=True)
-def control_period(k, u, x, blob, ints, ring, acc, work, states, log, sens, noise):
-    """One control period of the fixed-rate loop (parameters from :func:`pack_loop`): clip the
-    command u to [-1, 1] into log[k, L_COMMAND], :func:`advance` by nsub substeps, then record row
-    k's mean valve and chamber flows (kg/s over dt) and peak Mach numbers and row k + 1's state
-    and environment force; with compiled sensors (sens[0, 0] >= 0) also row k + 1's readings
-    (:func:`read_sensors`).  Returns (first bad state or -1, first side whose peak Mach exceeds
-    ps[s, S_MACH_LIMIT] or -1, then the eight readings of row k + 1 - or, without compiled
+def control_period(k, u, x, loop_b, pv, table, ring, acc_b, work, states, log_b, sens_b, filt_b, noise):
+    """One control period of the fixed-rate loop (``loop``: the LOOP record of :func:`pack_loop`;
+    ``table``: the valve's command grid and supply and exhaust conductances as rows): clip the
+    command u to [-1, 1] into log[k].command, :func:`advance` by nsub substeps, then record row
+    k's mean valve and chamber flows (kg/s over dt), peak Mach numbers and choking, and row k + 1's
+    state and environment force; with compiled sensors (sens[0].kind >= 0) also row k + 1's
+    readings (:func:`read_sensors`).  Returns (first bad state or -1, first side whose peak Mach
+    exceeds its mach_limit or -1, then the eight readings of row k + 1 - or, without compiled
     sensors, the piston position, environment force and the pressures at the state indices
-    p_read, for the Python sensors, and two zeros)."""
-    nsub, h, dt, vmax = int(blob[0]), blob[1], blob[2], blob[3]
-    nmax, ng = int(blob[4]), int(blob[5])
-    o = N_HEAD
-    pc = blob[o:o + N_COMMON]
-    o += N_COMMON
-    ps = blob[o:o + 2 * N_SIDE].reshape((2, N_SIDE))
-    o += 2 * N_SIDE
-    pv = blob[o:o + 2 * nmax].reshape((2, nmax))
-    o += 2 * nmax
-    kn, km, ka = blob[o:o + N_POLES], blob[o + N_POLES:o + 2 * N_POLES], blob[o + 2 * N_POLES:o + 3 * N_POLES]
-    o += 3 * N_POLES
-    grid, csup, cexh = blob[o:o + ng], blob[o + ng:o + 2 * ng], blob[o + 2 * ng:o + 3 * ng]
-    off = ints[:8].reshape((2, 4))
+    p_read, for the Python sensors, and two zeros).  The records come as byte views (:func:`as_bytes`)."""
+    r = loop_b.view(LOOP)[0]
+    a = acc_b.view(ACC)[0]
+    log, sens = log_b.view(LOG), sens_b.view(SENSOR)
+    pc, ps = r.pc, r.ps
     u = min(1.0, max(-1.0, u))
-    log[k, L_COMMAND] = u
-    for i in range(A_FORCE):
-        acc[i] = 0.0
-    ints[12], bad = advance(x, u, nsub, h, pc, ps, pv, off, kn, km, ka, grid, csup, cexh, ring, ints[12], acc, vmax,
-                            work, k == 0)
+    log[k].command = u
+    a.valve[:] = 0.0
+    a.chamber[:] = 0.0
+    r.head, bad = advance(x, u, r.nsub, r.h, pc, ps, pv, r.kn, r.km, r.ka, table[0], table[1], table[2], ring,
+                          r.head, a, r.vmax, work, k == 0)
     over = -1
     for s in range(2):
-        log[k, L_VALVE + s] = acc[A_VALVE + s] / dt
-        log[k, L_CHAMBER + s] = acc[A_CHAMBER + s] / dt
-        log[k, L_MACH + s] = acc[A_MACH + s]
-        if over < 0 and acc[A_MACH + s] > ps[s, S_MACH_LIMIT]:
+        log[k].valve[s] = a.valve[s] / r.dt
+        log[k].chamber[s] = a.chamber[s] / r.dt
+        log[k].mach[s] = a.mach[s]
+        log[k].exit_mach[s] = a.exit_mach[s]
+        log[k].choked[s] = 1.0 if a.choked[s] else 0.0
+        if over < 0 and a.mach[s] > ps[s].mach_limit:
             over = s
     states[k + 1] = x
-    log[k + 1, L_FORCE] = acc[A_FORCE]
-    z, f, p1, p2, p3, p4 = x[0], acc[A_FORCE], x[ints[8]], x[ints[9]], x[ints[10]], x[ints[11]]
-    if sens[0, 0] < 0.0:
+    log[k + 1].force = a.force
+    pr = r.p_read
+    z, f, p1, p2, p3, p4 = x[0], a.force, x[pr[0]], x[pr[1]], x[pr[2]], x[pr[3]]
+    if sens[0].kind < 0.0:
         return (bad, over, z, f, p1, p2, p3, p4, 0.0, 0.0)
-    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens, noise, log)
-    m = log[k + 1, L_MEAS:]
+    read_sensors(k + 1, z, f, p1, p2, p3, p4, sens_b, filt_b, noise, log_b)
+    m = log[k + 1].meas
     return (bad, over, m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7])
 
 
@@ -681,21 +783,21 @@ def control_period(k, u, x, blob, ints, ring, acc, work, states, log, sens, nois
 def chamber_step(p, mass, flow, g, vo, vn, h, s, pc):
     """New chamber-node pressure after one substep, the valve flow (if this node is the port)
     implicit through its slope g = d m_v / d P.  Eq 15: P V^r advanced with the polytropic form
-    (mass exact for r = 1).  Energy equation (pc[ENERGY]): E = P V advanced linearly implicitly,
+    (mass exact for r = 1).  Energy equation (pc.energy): E = P V advanced linearly implicitly,
     E_n (1 + h (gamma - 1) h_A / (m_n R)) + (gamma - 1) P_n (V_n - V_o) = E_o + h (gamma R T_in m_dot
     + (gamma - 1) h_A T_w), which tends to P_n = m_n R T_w / V_n as h_A grows (isothermal) and to
     P V^gamma = const with h_A = 0 and no flow (adiabatic)."""
-    rt = pc[RT]
-    if pc[ENERGY] > 0.5:
-        gam = pc[GAMMA]
-        r_gas = rt / pc[T_AIR]
+    rt = pc.rt
+    if pc.energy:
+        gam = pc.gamma
+        r_gas = rt / pc.t_air
         t_ch = p * vo / (mass * r_gas)
         rt_in = rt if flow >= 0.0 else r_gas * t_ch
-        ha = pc[HA1] if s == 0 else pc[HA2]
+        ha = pc.wall_ha[s]
         m_n = mass + h * flow
         den = vn * (1.0 + h * (gam - 1.0) * ha / (m_n * r_gas)) + (gam - 1.0) * (vn - vo) - h * gam * rt_in * g
-        return (p * vo + h * (gam * rt_in * (flow - g * p) + (gam - 1.0) * ha * pc[T_AIR])) / den
-    r = pc[RPOLY]
+        return (p * vo + h * (gam * rt_in * (flow - g * p) + (gam - 1.0) * ha * pc.t_air)) / den
+    r = pc.polytropic
     if r == 1.0:
         return (p * vo + h * rt * (flow - g * p)) / (vn - h * rt * g)
     fac = h * r * rt * vn ** (r - 1.0)
@@ -713,7 +815,7 @@ def _all_finite(x):
 
 
 @njit(cache=True)
-def first_bad(x, off, ps, vmax):
+def first_bad(x, ps, vmax):
     """Index of the first non-finite or runaway state (-1 if none): pressures must stay in
     (0, 1e8) Pa and |v| below vmax."""
     if not _all_finite(x):
@@ -723,10 +825,10 @@ def first_bad(x, off, ps, vmax):
     if abs(x[1]) > vmax:
         return 1
     for s in range(2):
-        for k in range(int(ps[s, S_NN])):
-            p = x[off[s, O_P] + k]
+        for k in range(ps[s].nn):
+            p = x[ps[s].o_p + k]
             if p <= 0.0 or p > MAX_PRESSURE_PA:
-                return off[s, O_P] + k
+                return ps[s].o_p + k
     return -1
 
 

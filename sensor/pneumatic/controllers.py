@@ -39,18 +39,7 @@ from numba import njit
 from sensor.errors import SensorInputError
 from sensor.pneumatic._kernel import steady_coefficient
 from sensor.pneumatic.observer import (
-    Q_A1,
-    Q_A2,
-    Q_BCRIT,
-    Q_KREF,
-    Q_PATM,
-    Q_PSUP,
-    Q_RLAM,
-    Q_RT,
-    Q_STROKE,
-    Q_V01,
-    Q_V02,
-    Q_VISC,
+    MODEL,
     ObserverModel,
     PressureObserver,
     volumes,
@@ -177,9 +166,9 @@ def command_for(conductance, cal_c, cal_u):
 
 
 @njit(cache=True)
-def psi(pu, pd, q):
-    """Flow per unit conductance psi(P_u, P_d) (kg/(s m^3/(s Pa))) of eq 88."""
-    return orifice_flow(1.0, q[Q_BCRIT], q[Q_RLAM], pu, pd, q[Q_KREF])[0]
+def psi(pu, pd, p):
+    """Flow per unit conductance psi(P_u, P_d) (kg/(s m^3/(s Pa))) of eq 88; p: a MODEL record."""
+    return orifice_flow(1.0, p.b_crit, p.r_lam, pu, pd, p.k_ref)[0]
 
 
 @njit(cache=True)
@@ -191,17 +180,17 @@ def sat(s, phi):
 
 
 @njit(cache=True)
-def smc_conductance(force_rate_N_s, p1, p2, z, v, q):
+def smc_conductance(force_rate_N_s, p1, p2, z, v, p):
     """Signed conductance that makes the actuator force rise at ``force_rate_N_s`` with chamber
     pressures p1, p2 (eqs 47/51, 53): F_p' = C R T psi_T - A1 P1 V1'/V1 + A2 P2 V2'/V2."""
-    v1, v2 = volumes(z, q)
-    a1, a2 = q[Q_A1], q[Q_A2]
+    v1, v2 = volumes(z, p)
+    a1, a2 = p.area_1, p.area_2
     need = force_rate_N_s + a1 * p1 * (a1 * v) / v1 - a2 * p2 * (-a2 * v) / v2
     if need >= 0.0:
-        den = psi(q[Q_PSUP], p1, q) * a1 / v1 + psi(p2, q[Q_PATM], q) * a2 / v2
+        den = psi(p.p_supply, p1, p) * a1 / v1 + psi(p2, p.p_atm, p) * a2 / v2
     else:
-        den = psi(p1, q[Q_PATM], q) * a1 / v1 + psi(q[Q_PSUP], p2, q) * a2 / v2
-    return need / (q[Q_RT] * max(den, 1e-300))
+        den = psi(p1, p.p_atm, p) * a1 / v1 + psi(p.p_supply, p2, p) * a2 / v2
+    return need / (p.rt * max(den, 1e-300))
 
 
 @njit(cache=True)
@@ -209,10 +198,11 @@ def smc_law(fd, fd_rate, p1, p2, force, z, v, acc, integral, lam, eta, phi, dt, 
     """One sample of :class:`SlidingMode`: s = e + lambda int e, the conductance that sets
     F_e' = F_d' + lambda e + eta sat(s / phi) (+ B z'' of eq 47) and its command.  The sliding
     variable's integral has no anti-windup.  Returns (u, s, new integral)."""
+    p = q.view(MODEL)[0]
     e = fd - force
     s = e + lam * integral
-    rate = fd_rate + lam * e + eta * sat(s, phi) + q[Q_VISC] * acc
-    u = command_for(smc_conductance(rate, p1, p2, z, v, q), cal_c, cal_u)
+    rate = fd_rate + lam * e + eta * sat(s, phi) + p.viscous * acc
+    u = command_for(smc_conductance(rate, p1, p2, z, v, p), cal_c, cal_u)
     return u, s, integral + e * dt
 
 
@@ -259,30 +249,31 @@ class LineDynamics:
 def line_dynamics(plant) -> LineDynamics:
     """:class:`LineDynamics` of a :class:`~sensor.pneumatic.plant.Plant`."""
     model = ObserverModel.from_plant(plant)
-    q = model.q
-    z = q[Q_STROKE] / 2
+    q = model.params
+    z = q["stroke"] / 2
     v1, v2 = model.volumes(z)
     vbar = 0.5 * (v1 + v2) - 0.25 * sum(model.line_volume_m3)     # V_c + V_L / 2, mean of the sides
     length = 0.5 * sum(model.line_length_m)
     bore = 0.5 * sum(model.line_bore_m)
-    wl2 = math.pi * bore * bore / 4 / length * q[Q_RT] / vbar
-    rho = 0.5 * (q[Q_PSUP] + q[Q_PATM]) / q[Q_RT]
+    wl2 = math.pi * bore * bore / 4 / length * q["rt"] / vbar
+    rho = 0.5 * (q["p_supply"] + q["p_atm"]) / q["rt"]
     f = 32.0 * model.viscosity_Pa_s / rho / (bore * bore)
     return LineDynamics(float(math.sqrt(wl2)), float(f), float(wl2 / f), plant.air.speed_of_sound, max(model.line_length_m))
 
 
-def smc_gains(plant) -> dict:
+def smc_gains(plant, slope_fraction: float = SMC_SLOPE_FRACTION) -> dict:
     """SMC gains for the plant's lines: the boundary-layer slope eta/phi (the rate of s' =
     -(eta/phi) s inside the layer, 1/s) is w_L/7, a margin below the lightly damped line mode the
     standard model ignores; phi = 20 N, lambda = 2 /s.  Measured on the distributed 20-segment
     plant, Enfield valve: w_L/4 and w_L/5 limit-cycle after a 24 N step at 7.25 and 10 m
-    (force-error lines of 1.5-2.4 N above 2.5 Hz), w_L/7 does not (below 0.05 N)."""
+    (force-error lines of 1.5-2.4 N above 2.5 Hz), w_L/7 does not (below 0.05 N).
+    ``slope_fraction``: another eta/phi / w_L (the tuning search of :mod:`.tuning`)."""
     ld = line_dynamics(plant)
-    slope = SMC_SLOPE_FRACTION * ld.natural_rad_s
+    slope = slope_fraction * ld.natural_rad_s
     return {"lam_per_s": SMC_LAMBDA_PER_S, "eta_N_s": slope * SMC_PHI_N, "phi_N": SMC_PHI_N}
 
 
-def line_model_gains(plant, variant: str = "thesis") -> dict:
+def line_model_gains(plant, variant: str = "thesis", outer_fraction: float = OUTER_RATE_FRACTION) -> dict:
     """Line-model controller gains for the plant's lines (section 5.4.2: inner loop first, one
     inner gain set for all lengths; outer loop per length).  The thesis gives no numbers, only
     the procedure; these rules stand in for its hand tuning.
@@ -301,11 +292,12 @@ def line_model_gains(plant, variant: str = "thesis") -> dict:
       damped.
     * k_p1 = (0.75 w_L - lambda) / h_bar (>= 0), lambda = 10 /s: the nominal outer-loop rate
       lambda + h_bar k_p1 (eq 71) is three quarters of the line mode, so the outer loop stays
-      below the line it drives (h_bar at 2 m is 19 times that at 10 m)."""
+      below the line it drives (h_bar at 2 m is 19 times that at 10 m); ``outer_fraction``
+      another fraction (the tuning search of :mod:`.tuning`, inner loop held)."""
     if variant not in ("thesis", "damped"):
         raise SensorInputError(f"line-model gain variant = {variant!r}: must be thesis or damped")
     ld = line_dynamics(plant)
-    kp1 = max(0.0, (OUTER_RATE_FRACTION * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
+    kp1 = max(0.0, (outer_fraction * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
     kp2 = 2 * INNER_SAMPLE_GAIN * ld.speed_of_sound_m_s / max(ld.length_m, INNER_DESIGN_LENGTH_M)
     km = 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s if variant == "damped" else 0.0
     return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2, "ki2_per_s2": kp2 * kp2 / 4,
@@ -377,7 +369,7 @@ class Impedance(PIForce):
         _check_gains(stiffness_N_m=stiffness_N_m, mass_kg=mass_kg)
         self.kd, self.md = stiffness_N_m, mass_kg
         self.bd = 2.0 * math.sqrt(stiffness_N_m * mass_kg)     # critical damping
-        self.rest = model.q[Q_STROKE] / 2 if rest_m is None else rest_m
+        self.rest = model.params["stroke"] / 2 if rest_m is None else rest_m
 
     def desired(self, t, m):
         f, f1, f2, f3 = self.reference.derivatives(t)
@@ -440,18 +432,19 @@ class LineModel(_Loop):
                      flow_rate_per_s=flow_rate_per_s)
         self.cal_c, self.cal_u = valve_inverse(model)
         fvd_rate = DifferentiatingFilter(derivative_cutoff_Hz, dt_s)     # its recursion runs in the kernel
-        q = model.q
+        q = model.params
         half = [vl / 2 for vl in model.line_volume_m3]
         inertance = [math.pi * d * d / 4 / ln for d, ln in zip(model.line_bore_m, model.line_length_m)]
-        par = np.zeros(LM_NPAR)
-        par[LM_DT], par[LM_LAM], par[LM_KP1], par[LM_KI1] = dt_s, lam_per_s, kp1, ki1_per_s
-        par[LM_KP2], par[LM_KI2], par[LM_KM] = kp2_per_s, ki2_per_s2, flow_rate_per_s
-        par[LM_DEAD1], par[LM_DEAD2] = q[Q_V01] - model.line_volume_m3[0], q[Q_V02] - model.line_volume_m3[1]
-        par[LM_HALF1], par[LM_HALF2], par[LM_INERT1], par[LM_INERT2] = half[0], half[1], inertance[0], inertance[1]
-        par[LM_BORE1], par[LM_BORE2], par[LM_MU] = model.line_bore_m[0], model.line_bore_m[1], model.viscosity_Pa_s
-        par[LM_FA], par[LM_FB] = fvd_rate.coefficients
-        self.par = par
-        self.state = np.zeros(LM_NSTATE)      # see line_model_law
+        rec = np.zeros(1, LM_PARAMS)
+        g = rec[0]
+        g["dt"], g["lam"], g["kp1"], g["ki1"] = dt_s, lam_per_s, kp1, ki1_per_s
+        g["kp2"], g["ki2"], g["km"] = kp2_per_s, ki2_per_s2, flow_rate_per_s
+        g["dead_1"], g["dead_2"] = q["volume_1_0"] - model.line_volume_m3[0], q["volume_2_0"] - model.line_volume_m3[1]
+        g["half_1"], g["half_2"], g["inertance_1"], g["inertance_2"] = half[0], half[1], inertance[0], inertance[1]
+        g["bore_1"], g["bore_2"], g["mu"] = model.line_bore_m[0], model.line_bore_m[1], model.viscosity_Pa_s
+        g["filter_a"], g["filter_b"] = fvd_rate.coefficients
+        self.par = rec.view(np.float64)
+        self.state = np.zeros(1, LM_STATE).view(np.float64)      # see line_model_law
 
     def law(self, t, m, fd, fd_rate, p1, p2):
         u, fvd, fv, pc1, pc2, hbar, bad = line_model_law(
@@ -464,12 +457,17 @@ class LineModel(_Loop):
         return u, (fvd, fv, pc1, pc2, hbar)
 
 
-# packed parameters and state of line_model_law
-(LM_DT, LM_LAM, LM_KP1, LM_KI1, LM_KP2, LM_KI2, LM_KM, LM_DEAD1, LM_DEAD2, LM_HALF1, LM_HALF2, LM_INERT1,
- LM_INERT2, LM_BORE1, LM_BORE2, LM_MU, LM_FA, LM_FB) = range(18)
-LM_NPAR = 18
-S_PC1, S_MC1, S_PC2, S_MC2, S_ZPREV, S_STARTED, S_W1, S_W2, S_FX, S_FY = range(10)
-LM_NSTATE = 10
+#: The parameters of line_model_law as one named record (all float64; passed as its float view,
+#: read back with ``par.view(LM_PARAMS)[0]``): sample time, outer gains lambda, k_p1, k_i1, inner
+#: k_p2, k_i2, the line-flow damping k_m, per side the chamber dead volume, half the line volume,
+#: the inertance A/L and the bore, the viscosity and the F_vd derivative filter's coefficients.
+LM_PARAMS = np.dtype([(name, np.float64) for name in (
+    "dt", "lam", "kp1", "ki1", "kp2", "ki2", "km", "dead_1", "dead_2", "half_1", "half_2", "inertance_1",
+    "inertance_2", "bore_1", "bore_2", "mu", "filter_a", "filter_b")])
+#: Its state (float64 record, the same way): the line model's chamber pressures and flows, the
+#: previous position, the start phase (0, 1, 2), the integrals w_1, w_2 and the filter's x and y.
+LM_STATE = np.dtype([(name, np.float64) for name in (
+    "pc_1", "mc_1", "pc_2", "mc_2", "z_prev", "started", "w_1", "w_2", "filter_x", "filter_y")])
 
 
 @njit(cache=True)
@@ -478,39 +476,42 @@ def line_model_law(st, par, q, cal_c, cal_u, z, v, acc, force, pv1, pv2, fd, fd_
     ``st`` (line-model pressures and flows, previous position, integrals w_1 and w_2, the F_vd
     derivative filter) updated in place.  Returns (u, F_vd, F_V, P_c1, P_c2, h_bar, bad) with bad
     the side (0, 1) whose chamber-pressure estimate left (0, 1e8) Pa, else -1."""
-    rt, a1, a2 = q[Q_RT], q[Q_A1], q[Q_A2]
-    dt, mu = par[LM_DT], par[LM_MU]
-    half1, half2 = par[LM_HALF1], par[LM_HALF2]
-    vn1 = par[LM_DEAD1] + a1 * z + half1
-    vn2 = par[LM_DEAD2] + a2 * (q[Q_STROKE] - z) + half2
-    if st[S_STARTED] == 0.0:
-        st[S_PC1], st[S_MC1], st[S_PC2], st[S_MC2] = pv1, 0.0, pv2, 0.0
-        fr1 = steady_coefficient(0.0, mu / (pv1 / rt), par[LM_BORE1], 0, mu)
-        fr2 = steady_coefficient(0.0, mu / (pv2 / rt), par[LM_BORE2], 0, mu)
-        st[S_STARTED] = 1.0
+    r = st.view(LM_STATE)[0]
+    g = par.view(LM_PARAMS)[0]
+    p = q.view(MODEL)[0]
+    rt, a1, a2 = p.rt, p.area_1, p.area_2
+    dt, mu = g.dt, g.mu
+    half1, half2 = g.half_1, g.half_2
+    vn1 = g.dead_1 + a1 * z + half1
+    vn2 = g.dead_2 + a2 * (p.stroke - z) + half2
+    if r.started == 0.0:
+        r.pc_1, r.mc_1, r.pc_2, r.mc_2 = pv1, 0.0, pv2, 0.0
+        fr1 = steady_coefficient(0.0, mu / (pv1 / rt), g.bore_1, 0, mu)
+        fr2 = steady_coefficient(0.0, mu / (pv2 / rt), g.bore_2, 0, mu)
+        r.started = 1.0
     else:
-        zp = st[S_ZPREV]
-        vo1 = par[LM_DEAD1] + a1 * zp + half1
-        vo2 = par[LM_DEAD2] + a2 * (q[Q_STROKE] - zp) + half2
-        pc, mc, fr1 = line_model_step(st[S_PC1], st[S_MC1], pv1, (vo1, vn1), dt, par[LM_INERT1], par[LM_BORE1], mu, rt)
-        st[S_PC1], st[S_MC1] = pc, mc
+        zp = r.z_prev
+        vo1 = g.dead_1 + a1 * zp + half1
+        vo2 = g.dead_2 + a2 * (p.stroke - zp) + half2
+        pc, mc, fr1 = line_model_step(r.pc_1, r.mc_1, pv1, (vo1, vn1), dt, g.inertance_1, g.bore_1, mu, rt)
+        r.pc_1, r.mc_1 = pc, mc
         if not (math.isfinite(pc) and 0.0 < pc < 1e8):
-            return 0.0, 0.0, 0.0, pc, st[S_PC2], 0.0, 0
-        pc, mc, fr2 = line_model_step(st[S_PC2], st[S_MC2], pv2, (vo2, vn2), dt, par[LM_INERT2], par[LM_BORE2], mu, rt)
-        st[S_PC2], st[S_MC2] = pc, mc
+            return 0.0, 0.0, 0.0, pc, r.pc_2, 0.0, 0
+        pc, mc, fr2 = line_model_step(r.pc_2, r.mc_2, pv2, (vo2, vn2), dt, g.inertance_2, g.bore_2, mu, rt)
+        r.pc_2, r.mc_2 = pc, mc
         if not (math.isfinite(pc) and 0.0 < pc < 1e8):
-            return 0.0, 0.0, 0.0, st[S_PC1], pc, 0.0, 1
-    st[S_ZPREV] = z
-    pc1, mc1, pc2, mc2 = st[S_PC1], st[S_MC1], st[S_PC2], st[S_MC2]
+            return 0.0, 0.0, 0.0, r.pc_1, pc, 0.0, 1
+    r.z_prev = z
+    pc1, mc1, pc2, mc2 = r.pc_1, r.mc_1, r.pc_2, r.mc_2
     # eqs 64-65 with the A/L of eq 63: h_bar (1/s)
-    inert = 0.5 * (par[LM_INERT1] + par[LM_INERT2])
+    inert = 0.5 * (g.inertance_1 + g.inertance_2)
     hbar = inert * rt / (0.5 * (fr1 + fr2) * 0.5 * (vn1 + vn2))
     # F_p of eq 70 from the line model's chamber pressures (section 5.3.1: "chamber pressures
     # are obtained using the line model"), so F_p + P_atm A_rod = P_c1 A1 - P_c2 A2
-    g1 = q[Q_VISC] * acc + a1 * pc1 * (a1 * v) / vn1 - a2 * pc2 * (-a2 * v) / vn2
+    g1 = p.viscous * acc + a1 * pc1 * (a1 * v) / vn1 - a2 * pc2 * (-a2 * v) / vn2
     e1 = fd - force
-    shift = (fd_rate + par[LM_LAM] * e1 + g1) / hbar + par[LM_KP1] * e1 + par[LM_KI1] * st[S_W1]
-    km = par[LM_KM]
+    shift = (fd_rate + g.lam * e1 + g1) / hbar + g.kp1 * e1 + g.ki1 * r.w_1
+    km = g.km
     if km > 0:
         # line inertia (section 5.3.1 neglects dm_c/dt): the chamber-flow force rate
         # phi = R T (A1 m_c1 / V1 - A2 m_c2 / V2) obeys phi' = w_L^2 (F_V - F_p) - f phi with
@@ -525,24 +526,24 @@ def line_model_law(st, par, q, cal_c, cal_u, z, v, acc, force, pv1, pv2, fd, fd_
     # F_vd': the chamber-force part from the line model itself (eq 55, no lag), the rest through
     # the first-order filtered derivative (Tustin, as DifferentiatingFilter)
     chamber_rate = a1 * (mc1 * rt - pc1 * a1 * v) / vn1 - a2 * (mc2 * rt + pc2 * a2 * v) / vn2
-    if st[S_STARTED] == 1.0:
-        st[S_FX] = shift
-        st[S_STARTED] = 2.0
-    st[S_FY] = par[LM_FA] * st[S_FY] + par[LM_FB] * (shift - st[S_FX])
-    st[S_FX] = shift
-    fvd_rate = chamber_rate + st[S_FY]
+    if r.started == 1.0:
+        r.filter_x = shift
+        r.started = 2.0
+    r.filter_y = g.filter_a * r.filter_y + g.filter_b * (shift - r.filter_x)
+    r.filter_x = shift
+    fvd_rate = chamber_rate + r.filter_y
     # eqs 56, 67, 72 with R T: F_V' = R T (A1 (m_v1 - m_c1) / Vh1 - A2 (m_v2 - m_c2) / Vh2)
-    target = (fvd_rate + par[LM_KP2] * e2 + par[LM_KI2] * st[S_W2]) / rt + a1 * mc1 / half1 - a2 * mc2 / half2
+    target = (fvd_rate + g.kp2 * e2 + g.ki2 * r.w_2) / rt + a1 * mc1 / half1 - a2 * mc2 / half2
     if target >= 0:
-        den = psi(q[Q_PSUP], pv1, q) * a1 / half1 + psi(pv2, q[Q_PATM], q) * a2 / half2
+        den = psi(p.p_supply, pv1, p) * a1 / half1 + psi(pv2, p.p_atm, p) * a2 / half2
     else:
-        den = psi(pv1, q[Q_PATM], q) * a1 / half1 + psi(q[Q_PSUP], pv2, q) * a2 / half2
+        den = psi(pv1, p.p_atm, p) * a1 / half1 + psi(p.p_supply, pv2, p) * a2 / half2
     u = command_for(target / max(den, 1e-300), cal_c, cal_u)
     # anti-windup: integrate unless the command is saturated and the error would push it further
     if abs(u) < 1.0 or (u > 0) != (e1 > 0):
-        st[S_W1] += e1 * dt
+        r.w_1 += e1 * dt
     if abs(u) < 1.0 or (u > 0) != (e2 > 0):
-        st[S_W2] += e2 * dt
+        r.w_2 += e2 * dt
     return u, fvd, fv, pc1, pc2, hbar, -1
 
 

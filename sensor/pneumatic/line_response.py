@@ -20,6 +20,13 @@ Step response: the fixed-volume test of thesis Figures 5 and 7 - the valve (defa
 preset) opens fully at t = 0 from a line and chamber at atmosphere to a supply at
 ``pressure_Pa``, and reverses (vents) at T; T doubles from 50 ms until the distributed line's
 chamber is stationary at the end of both halves (see :func:`step_test`).
+
+Steady discharge (choking you can see): the distributed line fed at its inlet by a valve
+DISCHARGE_VALVE_SCALE times the Festo preset, fully open from a supply at ``pressure_Pa``, into the
+atmosphere (a 10 m^3 chamber), run until its flow is steady (:func:`discharge_test`): the steady
+mass flow, the exit-face Mach, whether it chokes and the largest element Mach, beside the
+analytic isothermal and Fanno flows from the port node's pressure as stagnation pressure
+(:mod:`.choked_flow`).
 """
 from __future__ import annotations
 
@@ -32,12 +39,14 @@ from scipy.signal import find_peaks
 
 from sensor.errors import SensorInputError, SolverError
 from sensor.pneumatic.bergh_tijdeman import bergh_tijdeman
+from sensor.pneumatic.choked_flow import fanno_flow, isothermal_flow
 from sensor.pneumatic.cylinder import FixedChambers
 from sensor.pneumatic._kernel import MAX_PRESSURE_PA
 from sensor.pneumatic.lines import LINE_MODELS, MAX_BORE_M, MAX_LENGTH_M, attenuation_factor, make_line
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import ideal_sensors
-from sensor.pneumatic.simulate import simulate
+from sensor.pneumatic.simulate import constant_command, simulate
+from sensor.pneumatic.valve import FESTO_MPYE, Valve
 
 FREQUENCY_DECADES = 2.0      # the grid runs log-spaced from fmax / 100 to fmax
 STEP_SAMPLES = 1000          # samples per step run (the control rate follows from its length)
@@ -48,6 +57,10 @@ PEAK_PROMINENCE = 1e-3       # a resonance stands 0.1 % of the largest |H| above
 MAX_POINTS = 100_000         # frequency points (each costs every model's modal sum)
 MAX_VOLUME_M3 = 1.0
 MAX_FMAX_HZ = 1e6            # far above the acoustic modes of any line the models describe
+DISCHARGE_VALVE_SCALE = 20.0  # the discharge test's inlet valve / the Festo preset (conductance)
+DISCHARGE_VOLUME_M3 = 10.0    # the atmosphere the line discharges into (its pressure rises < 0.1 %)
+DISCHARGE_STEADY = 1e-3       # flow steady: the last 10 % of the run within 0.1 % of its end value
+FIRST_DISCHARGE_S = 0.2
 
 
 LIMITS = {"length_m": MAX_LENGTH_M, "bore_m": MAX_BORE_M, "volume_m3": MAX_VOLUME_M3,
@@ -183,7 +196,8 @@ def step_metrics(ds, half: float, supply: float, atm: float) -> dict:
     """Chamber pressurisation: share of the step reached at the reversal (%), 10 % delay and
     10-90 % rise time (s, None if not reached), overshoot and ripple (peak-to-peak over the last
     quarter of the charging half; % of the step), the largest valve-chamber gap while charging
-    (Pa), and the largest Mach number of the line's flow elements over the whole test (0 for
+    (Pa), and over the whole test the largest mean Mach number of the line's flow elements
+    (``max_mach``), the largest exit-face Mach and whether an end face choked (0 and false for
     models without flow elements)."""
     t = ds.time.values
     on = t <= half
@@ -194,10 +208,49 @@ def step_metrics(ds, half: float, supply: float, atm: float) -> dict:
     mach = ds.line_max_mach.sel(side=1).values
     return {"reached_pct": float(100.0 * frac[-1]), "delay_10pct_s": t10,
             "max_mach": float(np.nanmax(mach)),
+            "max_exit_mach": float(np.nanmax(ds.line_exit_mach.sel(side=1).values)),
+            "choked": bool(ds.line_choked.sel(side=1).values.any()),
             "rise_10_90_s": None if t90 is None else t90 - t10,
             "overshoot_pct": float(100.0 * max(0.0, frac.max() - 1.0)),
             "ripple_pct": float(100.0 * np.ptp(frac[t[on] >= 0.75 * half])),
             "max_valve_chamber_gap_Pa": float(np.max(np.abs(pv - pc)))}
+
+def discharge_valve() -> Valve:
+    """Port 1 open to the supply with DISCHARGE_VALVE_SCALE times the Festo preset's full
+    conductance at every command; port 2 shut."""
+    c = DISCHARGE_VALVE_SCALE * float(np.max(FESTO_MPYE.arrays()[1]))
+    return Valve("discharge", (-1.0, 1.0), (c, c), (0.0, 0.0), critical_ratio=FESTO_MPYE.critical_ratio)
+
+
+def discharge_test(case: LineCase, segments: int | None = None) -> dict:
+    """The steady discharge of the module docstring for the distributed line of ``case``."""
+    line = make_line("distributed", case.length_m, case.bore_m, **({} if segments is None else {"segments": segments}))
+    cp = Plant(supply_Pa=case.pressure_Pa, valve=discharge_valve(), line_1=line, line_2=line,
+               actuator=FixedChambers(DISCHARGE_VOLUME_M3, DISCHARGE_VOLUME_M3)).compile()
+    air = cp.plant.air
+    duration = FIRST_DISCHARGE_S
+    while True:
+        ds = simulate(cp, constant_command(1.0), duration, rate_Hz=STEP_SAMPLES / duration, sensors=ideal_sensors())
+        flow = ds.chamber_mass_flow.sel(side=1).values[:-1]
+        tail = flow[int(0.9 * flow.size):]
+        if np.ptp(tail) <= DISCHARGE_STEADY * abs(flow[-1]):
+            break
+        duration *= 2.0
+        if duration > MAX_HALF_PERIOD_S:
+            raise SensorInputError(f"discharge test: the flow did not settle within {MAX_HALF_PERIOD_S:g} s "
+                                   f"(--length {case.length_m:g} m, --bore {case.bore_m:g} m)")
+    p0 = float(ds.pressure_valve.sel(side=1).values[-1])
+    back = float(ds.pressure_chamber.sel(side=1).values[-1])
+    refs = {}
+    for name, fn in (("isothermal", isothermal_flow), ("fanno", fanno_flow)):
+        m, choked = fn(p0, back, case.length_m, case.bore_m, air)
+        refs[name] = {"mass_flow_kg_s": m, "choked": choked, "deviation_pct": 100.0 * (flow[-1] / m - 1.0)}
+    return {"model": "distributed", "valve_conductance_m3_s_Pa": float(cp.csup.max()), "duration_s": duration,
+            "stagnation_pressure_Pa": p0, "back_pressure_Pa": back, "mass_flow_kg_s": float(flow[-1]),
+            "exit_mach": float(ds.line_exit_mach.sel(side=1).values[-2]),
+            "choked": bool(ds.line_choked.sel(side=1).values[-2]),
+            "max_mach": float(ds.line_max_mach.sel(side=1).values[-2]), "references": refs}
+
 
 def _series(response: Response, f) -> dict:
     return {"frequency_hz": f.tolist(), "amplitude_ratio": response.amplitude(f).tolist(),
@@ -248,5 +301,7 @@ def analyse(case: LineCase) -> dict:
                        **step_metrics(ds, half, case.pressure_Pa, air.atmosphere_Pa)}
                    for m, ds in runs.items()},
     }
+    if "distributed" in case.models:
+        result["discharge"] = discharge_test(case)
     return result
 

@@ -32,10 +32,15 @@ from sensor.pneumatic.valve import port_flow
 
 OBSERVER_KINDS = ("force", "standard", "valve")
 
-# packed model vector q[...]
-Q_RT, Q_PATM, Q_PSUP, Q_BCRIT, Q_RLAM, Q_KREF = 0, 1, 2, 3, 4, 5
-Q_A1, Q_A2, Q_AROD, Q_STROKE, Q_V01, Q_V02, Q_MASS, Q_VISC = 6, 7, 8, 9, 10, 11, 12, 13
-N_Q = 14
+#: The standard model's parameters as one named record (SI units): R T, atmosphere, supply, the
+#: valve's b, laminar ratio and k_ref, piston areas, stroke, the volumes V0_i (chamber dead volume
+#: plus nominal line volume), piston mass M and viscous damping B.  All fields are float64, so the
+#: per-sample entry points (observer_update, the controllers' laws) take its float view ``q`` (a
+#: plain array: cheap to pass from Python), read it back once with ``q.view(MODEL)[0]`` and hand
+#: the record to the functions they call.
+MODEL = np.dtype([(name, np.float64) for name in (
+    "rt", "p_atm", "p_supply", "b_crit", "r_lam", "k_ref", "area_1", "area_2", "area_rod", "stroke",
+    "volume_1_0", "volume_2_0", "mass", "viscous")])
 
 
 @dataclass(frozen=True)
@@ -63,28 +68,36 @@ class ObserverModel:
         if not isinstance(act, Cylinder):
             raise SensorInputError(f"plant actuator = {type(act).__name__}: the observer needs a Cylinder "
                               "(piston force and moving chamber volumes, eqs 17-21)")
-        q = np.zeros(N_Q)
-        q[Q_RT], q[Q_PATM], q[Q_PSUP] = air.rt, air.atmosphere_Pa, plant.supply_Pa
-        q[Q_BCRIT], q[Q_RLAM], q[Q_KREF] = valve.critical_ratio, valve.laminar_ratio, valve.k_ref
-        q[Q_A1], q[Q_A2], q[Q_AROD], q[Q_STROKE] = act.area_1_m2, act.area_2_m2, act.rod_area_m2, act.stroke_m
-        q[Q_V01] = act.dead_volume_1_m3 + plant.line_1.volume_m3
-        q[Q_V02] = act.dead_volume_2_m3 + plant.line_2.volume_m3
-        q[Q_MASS], q[Q_VISC] = act.piston_mass_kg, act.viscous_N_s_m
+        rec = np.zeros(1, MODEL)
+        p = rec[0]
+        p["rt"], p["p_atm"], p["p_supply"] = air.rt, air.atmosphere_Pa, plant.supply_Pa
+        p["b_crit"], p["r_lam"], p["k_ref"] = valve.critical_ratio, valve.laminar_ratio, valve.k_ref
+        p["area_1"], p["area_2"], p["area_rod"], p["stroke"] = act.area_1_m2, act.area_2_m2, act.rod_area_m2, act.stroke_m
+        p["volume_1_0"] = act.dead_volume_1_m3 + plant.line_1.volume_m3
+        p["volume_2_0"] = act.dead_volume_2_m3 + plant.line_2.volume_m3
+        p["mass"], p["viscous"] = act.piston_mass_kg, act.viscous_N_s_m
+        q = rec.view(np.float64)
         grid, cs, ce = valve.arrays()
         lines = (plant.line_1, plant.line_2)
         return cls(q, grid, cs, ce, tuple(float(ln.volume_m3) for ln in lines),
                    tuple(float(ln.length_m) for ln in lines), tuple(float(ln.bore_m) for ln in lines),
                    air.viscosity_Pa_s)
 
+    @property
+    def params(self) -> np.void:
+        """The parameters by name (the :data:`MODEL` record of ``q``)."""
+        return self.q.view(MODEL)[0]
+
     def volumes(self, z_m: float) -> tuple[float, float]:
         """Chamber plus line volumes (m^3) at piston position z (eqs 20-21)."""
-        return volumes(z_m, self.q)
+        return volumes(z_m, self.params)
 
     def force_capacity_N(self) -> tuple[float, float]:
         """(lowest, highest) actuator force (N): one chamber at supply, the other at atmosphere
         (eq 17): -(P_s - P_atm) A_2 and (P_s - P_atm) A_1."""
-        dp = self.q[Q_PSUP] - self.q[Q_PATM]
-        return -dp * self.q[Q_A2], dp * self.q[Q_A1]
+        p = self.params
+        dp = p["p_supply"] - p["p_atm"]
+        return -dp * p["area_2"], dp * p["area_1"]
 
     def gain_for_rate(self, rate_Hz: float, z_m: float | None = None) -> float:
         """Observer gain k (m^6/s) that puts the correction's pole at ``rate_Hz`` at position z
@@ -92,45 +105,47 @@ class ObserverModel:
         -k (A_1 / (V_1^2 A_2) + A_2 / (V_2^2 A_1))."""
         if not (math.isfinite(rate_Hz) and rate_Hz >= 0):
             raise SensorInputError(f"observer rate_Hz = {rate_Hz!r}: must be a finite number >= 0")
-        z = self.q[Q_STROKE] / 2 if z_m is None else z_m
+        p = self.params
+        z = p["stroke"] / 2 if z_m is None else z_m
         v1, v2 = self.volumes(z)
-        a1, a2 = self.q[Q_A1], self.q[Q_A2]
+        a1, a2 = p["area_1"], p["area_2"]
         return 2 * math.pi * rate_Hz / (a1 / (v1 * v1 * a2) + a2 / (v2 * v2 * a1))
 
 
 @njit(cache=True)
-def volumes(z, q):
-    """(V_1, V_2) in m^3: chamber plus line volume at position z (eqs 16, 20-21)."""
-    return q[Q_V01] + q[Q_A1] * z, q[Q_V02] + q[Q_A2] * (q[Q_STROKE] - z)
+def volumes(z, p):
+    """(V_1, V_2) in m^3: chamber plus line volume at position z (eqs 16, 20-21); p: a MODEL record."""
+    return p.volume_1_0 + p.area_1 * z, p.volume_2_0 + p.area_2 * (p.stroke - z)
 
 
 @njit(cache=True)
-def actuator_force(p1, p2, q):
+def actuator_force(p1, p2, p):
     """F_p = P_1 A_1 - P_2 A_2 - P_atm A_rod in N (eq 17)."""
-    return p1 * q[Q_A1] - p2 * q[Q_A2] - q[Q_PATM] * q[Q_AROD]
+    return p1 * p.area_1 - p2 * p.area_2 - p.p_atm * p.area_rod
 
 
 @njit(cache=True)
 def measured_actuator_force(force_N, velocity_m_s, acceleration_m_s2, q):
     """F_p = F_e + M z'' + B z' in N from the readings (eq 18, Coulomb friction neglected)."""
-    return force_N + q[Q_MASS] * acceleration_m_s2 + q[Q_VISC] * velocity_m_s
+    p = q.view(MODEL)[0]
+    return force_N + p.mass * acceleration_m_s2 + p.viscous * velocity_m_s
 
 
 @njit(cache=True)
-def correction(p1_hat, p2_hat, v1, v2, fp_measured, q):
+def correction(p1_hat, p2_hat, v1, v2, fp_measured, p):
     """(f_1, f_2) of eqs 23-24 in Pa/m^3; they contain the force error F_hat_p - F_p."""
-    err = actuator_force(p1_hat, p2_hat, q) - fp_measured
-    return -err / (v1 * q[Q_A2]), err / (v2 * q[Q_A1])
+    err = actuator_force(p1_hat, p2_hat, p) - fp_measured
+    return -err / (v1 * p.area_2), err / (v2 * p.area_1)
 
 
 @njit(cache=True)
-def observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh):
+def observer_rhs(x1, x2, u, v1, v2, fp_measured, k, p, grid, csup, cexh):
     """d(x_hat)/dt of eq 22 (W) and its Jacobian (1/s) as (d1, d2, j11, j12, j21, j22)."""
     p1, p2 = x1 / v1, x2 / v2
-    m1, dm1 = port_flow(u, grid, csup, cexh, q[Q_BCRIT], q[Q_RLAM], q[Q_PSUP], p1, q[Q_PATM], q[Q_KREF])
-    m2, dm2 = port_flow(-u, grid, csup, cexh, q[Q_BCRIT], q[Q_RLAM], q[Q_PSUP], p2, q[Q_PATM], q[Q_KREF])
-    f1, f2 = correction(p1, p2, v1, v2, fp_measured, q)
-    rt, a1, a2 = q[Q_RT], q[Q_A1], q[Q_A2]
+    m1, dm1 = port_flow(u, grid, csup, cexh, p.b_crit, p.r_lam, p.p_supply, p1, p.p_atm, p.k_ref)
+    m2, dm2 = port_flow(-u, grid, csup, cexh, p.b_crit, p.r_lam, p.p_supply, p2, p.p_atm, p.k_ref)
+    f1, f2 = correction(p1, p2, v1, v2, fp_measured, p)
+    rt, a1, a2 = p.rt, p.area_1, p.area_2
     c12 = k / (v1 * v2)
     return (m1 * rt + k * f1, m2 * rt + k * f2,
             rt * dm1 / v1 - k * a1 / (v1 * v1 * a2), c12,
@@ -138,10 +153,10 @@ def observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh):
 
 
 @njit(cache=True)
-def observer_step(x1, x2, u, z, fp_measured, k, h, q, grid, csup, cexh):
+def observer_step(x1, x2, u, z, fp_measured, k, h, p, grid, csup, cexh):
     """One linearly implicit Euler step of h seconds; returns the new (x_hat_1, x_hat_2)."""
-    v1, v2 = volumes(z, q)
-    d1, d2, j11, j12, j21, j22 = observer_rhs(x1, x2, u, v1, v2, fp_measured, k, q, grid, csup, cexh)
+    v1, v2 = volumes(z, p)
+    d1, d2, j11, j12, j21, j22 = observer_rhs(x1, x2, u, v1, v2, fp_measured, k, p, grid, csup, cexh)
     a, b, c, d = 1.0 - h * j11, -h * j12, -h * j21, 1.0 - h * j22
     det = a * d - b * c
     return x1 + h * (d * d1 - b * d2) / det, x2 + h * (a * d2 - c * d1) / det
@@ -169,8 +184,9 @@ class PressureObserver:
         self.k = float(gain_m6_s) if kind == "force" else 0.0
         self.gain_on_s = float(gain_on_s)
         if initial_Pa is None:
-            initial_Pa = (model.q[Q_PATM], model.q[Q_PATM])
+            initial_Pa = (model.params["p_atm"], model.params["p_atm"])
         self._p0 = tuple(float(p) for p in initial_Pa)
+        self._limit = 100.0 * float(model.params["p_supply"])   # runaway bound on an estimate (Pa)
         self._x: tuple | None = None      # (x_hat_1, x_hat_2, P_hat_1, P_hat_2, F_p) of observer_update
         self.pressures = self._p0
         self.fp_measured = 0.0
@@ -188,7 +204,7 @@ class PressureObserver:
             x[0], x[1], first, u_prev, m["position_m"], m["force_N"], m["velocity_m_s"], m["acceleration_m_s2"],
             self.k if t >= self.gain_on_s else 0.0, self.dt, q, self.model.grid, self.model.supply_conductance,
             self.model.exhaust_conductance)
-        limit = 100.0 * q[Q_PSUP]
+        limit = self._limit
         if not (abs(p1) < limit and abs(p2) < limit):       # False for NaN too
             i, p = (1, p1) if not abs(p1) < limit else (2, p2)
             raise SensorInputError(f"observer stopped at t = {t:.6g} s: estimated chamber pressure "
@@ -203,9 +219,10 @@ def observer_update(x1, x2, first, u_prev, z, force_N, velocity_m_s, acceleratio
     x1, x2 are the starting pressures) one :func:`observer_step`.  Returns (x_hat_1, x_hat_2,
     P_hat_1, P_hat_2, F_p)."""
     fp = measured_actuator_force(force_N, velocity_m_s, acceleration_m_s2, q)
-    v1, v2 = volumes(z, q)
+    p = q.view(MODEL)[0]
+    v1, v2 = volumes(z, p)
     if first:
         x1, x2 = x1 * v1, x2 * v2
     else:
-        x1, x2 = observer_step(x1, x2, u_prev, z, fp, k, h, q, grid, csup, cexh)
+        x1, x2 = observer_step(x1, x2, u_prev, z, fp, k, h, p, grid, csup, cexh)
     return x1, x2, x1 / v1, x2 / v2, fp

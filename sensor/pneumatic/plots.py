@@ -11,13 +11,15 @@ from __future__ import annotations
 from matplotlib.figure import Figure
 
 from geometry import style
-from sensor.pneumatic.studies import CH5_HEADINGS, ESTIMATOR_HEADINGS, window
+from sensor.pneumatic.loop_metrics import window
+from sensor.pneumatic.studies import CH5_HEADINGS, CH5_PRIMARY, ESTIMATOR_HEADINGS
 
 style.use()
 
 
 ESTIMATOR_COLOURS = {"observer": "tab:blue", "open_loop": "tab:orange", "valve_ports": "tab:green"}
-CONTROLLER_COLOURS = {"smc": "tab:red", "line_model_thesis": "tab:blue", "line_model_damped": "tab:green"}
+CONTROLLER_COLOURS = {"smc": "tab:red", "line_model_thesis": "tab:blue", "smc_rule": "tab:red",
+                      "line_model_thesis_rule": "tab:blue", "line_model_damped": "tab:green"}
 WINDOW_SHADE = {"color": "0.85", "zorder": 0}
 OUTSIDE = {"fontsize": 8.5, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
 
@@ -131,8 +133,8 @@ def controller_mse_figure(res) -> Figure:
     ax = fig.subplots(1, len(refs) + 1)
     for a, ref in zip(ax, refs):
         for key, heading in CH5_HEADINGS.items():
-            a.plot(lengths, [get[(L, ref)][key]["mse1_N2"] for L in lengths], "o-", ms=4,
-                   color=CONTROLLER_COLOURS[key], label=heading)
+            a.plot(lengths, [get[(L, ref)][key]["mse1_N2"] for L in lengths], "o-" if key in CH5_PRIMARY else "o:",
+                   ms=4, color=CONTROLLER_COLOURS[key], label=heading)
         t4 = [(L, get[(L, ref)]["thesis_table4"]["mse1_N2"]) for L in lengths if get[(L, ref)]["thesis_table4"]]
         a.plot([x[0] for x in t4], [x[1] for x in t4], "k^--", ms=5, lw=0.8, label="Table 4 (thesis, measured)")
         a.set(yscale="log", xlabel="line length (m)", ylabel="MSE_1 (N^2)", title=f"Figure 32: {ref}")
@@ -153,7 +155,7 @@ def controller_mse_figure(res) -> Figure:
 def controller_virtual_input_figure(res, length_m: float = 5.0, seconds: float = 3.0) -> Figure | None:
     """Figures 33-34: F_vd, F_V, F_d and F_e over the last ``seconds`` of each kept line-model run
     at ``length_m``; None when no such run was kept."""
-    keep = [k for k in res["runs"] if k[0] == length_m and k[2] != "smc"]
+    keep = [k for k in res["runs"] if k[0] == length_m and not k[2].startswith("smc")]
     if not keep:
         return None
     fig = Figure(figsize=(4.6 * len(keep), 3.8), layout="constrained")

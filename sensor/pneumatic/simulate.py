@@ -57,45 +57,50 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
     x = cp.initial_state() if initial_state is None else np.array(initial_state, float)
     if x.shape != (cp.n_states,):
         raise SensorInputError(f"initial_state has shape {x.shape}: must be ({cp.n_states},)")
-    bad = K.first_bad(x, cp.off, cp.ps, MAX_VELOCITY_M_S)
+    bad = K.first_bad(x, cp.ps, MAX_VELOCITY_M_S)
     if bad >= 0:
         raise SensorInputError(f"simulation stopped at t = 0 s: state {cp.labels[bad]} = {float(x[bad])!r} "
                           "is not finite or outside its physical range")
     nsteps = run_steps(duration_s, rate_Hz, cp.n_states)
     delays = np.round(cp.delay_s / h).astype(int)
     ps = cp.ps.copy()
-    ps[:, K.S_DELAY] = delays
+    ps["delay"] = delays
     pc = cp.pc.copy()
-    if pc[K.SPOOL_ORDER] > 0:
-        pc[[K.SP_A00, K.SP_A01, K.SP_A10, K.SP_A11]] = cp.plant.valve.spool_step_matrices(h)
+    if pc[0]["spool_order"] > 0:
+        pc[0]["spool_step"] = np.reshape(cp.plant.valve.spool_step_matrices(h), (2, 2))
     ring = np.zeros((2, int(delays.max()) + 1))
-    acc = np.zeros(K.N_ACC)
+    acc = K.record(K.ACC)
     work = K.work_array(cp.pv, cp.kn)
     states = np.empty((nsteps + 1, cp.n_states))
-    log = np.full((nsteps + 1, K.N_LOG), np.nan)   # flows, Mach, force, command, readings (K.L_...)
-    p_valve = (int(cp.off[0, K.O_P]), int(cp.off[1, K.O_P]))
+    log = K.record(K.LOG, nsteps + 1)   # flows, Mach, choking, force, command, readings per period
+    for name in K.LOG.names:
+        log[name] = np.nan
+    p_valve = (int(cp.ps[0]["o_p"]), int(cp.ps[1]["o_p"]))
     p_ch = (p_valve[0] + cp.node_count(0) - 1, p_valve[1] + cp.node_count(1) - 1)
     p_read = np.array(p_valve + p_ch, np.int64)
-    blob, ints = K.pack_loop(nsub, h, dt, MAX_VELOCITY_M_S, pc, ps, cp.pv, cp.off, cp.kn, cp.km, cp.ka, cp.grid,
-                             cp.csup, cp.cexh, p_read)
-    _, _, _, acc[K.A_FORCE] = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc)
-    states[0], log[0, K.L_FORCE] = x, acc[K.A_FORCE]
-    raw = tuple(float(v) for v in (x[0], acc[K.A_FORCE], *x[p_read]))
+    loop = K.pack_loop(nsub, h, dt, MAX_VELOCITY_M_S, pc, ps, cp.kn, cp.km, cp.ka, p_read)
+    table = np.vstack([cp.grid, cp.csup, cp.cexh])
+    force = K.piston_forces(x[0], x[1], x[p_ch[0]], x[p_ch[1]], cp.pc[0])[3]
+    acc[0]["force"] = force
+    states[0], log[0]["force"] = x, force
+    raw = tuple(float(v) for v in (x[0], force, *x[p_read]))
     compiled = _compiled_sensors(sensors, nsteps + 1, dt)
     if compiled is None:
-        sens, noise = np.full((8, 4), -1.0), np.zeros((1, 6))
+        sens, filt, noise = K.record(K.SENSOR, 6), K.record(K.FILTER, 2), np.zeros((1, 6))
+        sens["kind"] = -1.0
         vel_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
         acc_f = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt)
         read_pos, read_f = sensors.position.read, sensors.force.read
         read_v1, read_v2 = sensors.pressure_valve_1.read, sensors.pressure_valve_2.read
         read_c1, read_c2 = sensors.pressure_chamber_1.read, sensors.pressure_chamber_2.read
     else:
-        sens, noise, noisy = compiled
-        K.read_sensors(0, *raw, sens, noise, log)
-        m = tuple(float(v) for v in log[0, K.L_MEAS:])
-    meas = log[:, K.L_MEAS:]
+        sens, filt, noise, noisy = compiled
+        K.read_sensors(0, *raw, K.as_bytes(sens), K.as_bytes(filt), noise, K.as_bytes(log))
+        m = tuple(float(v) for v in log[0]["meas"])
+    meas = log["meas"]
     kz, kv, ka, kf, kv1, kv2, kc1, kc2 = MEASUREMENT_KEYS
     period = K.control_period
+    loop_b, acc_b, log_b, sens_b, filt_b = (K.as_bytes(a) for a in (loop, acc, log, sens, filt))
     k = 0
     try:
         for k in range(nsteps + 1):
@@ -114,9 +119,9 @@ def simulate(plant: Plant | CompiledPlant, controller: Callable[[float, dict], f
                                      kc2: m[7]}))
             if not math.isfinite(u):
                 raise SensorInputError(f"controller returned command {u!r} at t = {t:.6g} s: must be finite")
-            out = period(k, u, x, blob, ints, ring, acc, work, states, log, sens, noise)
+            out = period(k, u, x, loop_b, cp.pv, table, ring, acc_b, work, states, log_b, sens_b, filt_b, noise)
             if out[0] >= 0 or out[1] >= 0:
-                _stop(cp, x, log, ps, k, t + dt, out[0], out[1])
+                _stop(cp, x, log, ps, k, t + dt, out[0], out[1], acc, substep_s is not None)
             if compiled is None:
                 raw = out[2:8]
             else:
@@ -133,36 +138,41 @@ SENSOR_NAMES = ("position", "force", "pressure_valve_1", "pressure_valve_2", "pr
 
 
 def _compiled_sensors(sensors: Sensors, reads: int, dt: float):
-    """(sens, noise, noisy sensors) for :func:`K.read_sensors` when all six sensors are plain
+    """(sens, filt, noise, noisy sensors) for :func:`K.read_sensors` when all six sensors are plain
     NoisyQuantised or Encoder objects (their exact arithmetic, and the noise each would draw in
     ``reads`` reads, drawn from its own stream in one batch), else None (Python reads). One
     object in two slots is read in Python: its reads take alternate draws of its one stream."""
     objs = [getattr(sensors, name) for name in SENSOR_NAMES]
     if not all(type(o) in (NoisyQuantised, Encoder) for o in objs) or len({id(o) for o in objs}) < len(objs):
         return None
-    sens = np.zeros((8, 4))
+    sens, filt = K.record(K.SENSOR, 6), K.record(K.FILTER, 2)
     noise = np.zeros((reads, 6))
     noisy = []
     for i, o in enumerate(objs):
         if type(o) is Encoder:
-            sens[i, :3] = (K.SENSOR_ENCODER, 0.0, o.count_m)
+            sens[i] = (K.SENSOR_ENCODER, 0.0, o.count_m)
             continue
-        sens[i, :3] = (K.SENSOR_NOISY, o.noise, o.resolution)
+        sens[i] = (K.SENSOR_NOISY, o.noise, o.resolution)
         if o.noise > 0:
             noise[:, i] = o.upcoming(reads)
             noisy.append(o)
-    for i in (6, 7):
-        sens[i, :2] = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt).coefficients
-    return sens, noise, noisy
+    for i in (0, 1):
+        filt[i]["a"], filt[i]["b"] = DifferentiatingFilter(sensors.differentiation_cutoff_Hz, dt).coefficients
+    return sens, filt, noise, noisy
 
 
-def _stop(cp, x, log, ps, k, t, bad, over) -> None:
-    """Raise the error of a run stopped at control period k (time t at its end)."""
+def _stop(cp, x, log, ps, k, t, bad, over, acc, given: bool) -> None:
+    """Raise the error of a run stopped at control period k (time t at its end); ``given``: the
+    substep was the caller's (then it may be the cause), not the automatic one."""
     if over >= 0:
         raise SolverError(f"simulation stopped at t = {t:.6g} s: the side {over + 1} line reached Mach "
-                          f"{log[k, K.L_MACH + over]:.3g}, beyond the distributed line's range (subsonic flow up to "
-                          f"Mach {ps[over, K.S_MACH_LIMIT]:g}; its isothermal ends choke at Mach "
-                          f"{1 / math.sqrt(cp.plant.air.gamma):.3f})")
+                          f"{log[k]['mach'][over]:.3g} in flow element {int(acc[0]['element'][over])} of "
+                          f"{cp.node_count(over) - 1}, beyond the distributed line's range (subsonic flow up to "
+                          f"Mach {ps[over]['mach_limit']:g}; its isothermal ends choke at Mach "
+                          f"{1 / math.sqrt(cp.plant.air.gamma):.3f}); cure: "
+                          + ("a smaller substep_s, or the automatic one (substep_s=None)" if given else
+                             "a lower supply pressure, a smaller valve or a larger bore (the flow would be "
+                             "supersonic)"))
     raise SensorInputError(f"simulation stopped at t = {t:.6g} s: state {cp.labels[bad]} = "
                            f"{float(x[bad])!r} is not finite or outside its physical range")
 
@@ -183,9 +193,9 @@ def run_steps(duration_s: float, rate_Hz: float, n_states: int) -> int:
 
 
 def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
-    cols = np.ascontiguousarray(log.T)   # one row per logged quantity
-    valve_flow, chamber_flow, mach = (cols[j:j + 2].T for j in (K.L_VALVE, K.L_CHAMBER, K.L_MACH))
-    force, commands = cols[K.L_FORCE], cols[K.L_COMMAND]
+    valve_flow, chamber_flow, mach, exit_mach, choked = (log[name] for name in (
+        "valve", "chamber", "mach", "exit_mach", "choked"))
+    force, commands = log["force"], log["command"]
     time = np.arange(states.shape[0]) * dt
     side = [1, 2]
     ds = xr.Dataset(
@@ -200,14 +210,20 @@ def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
             "chamber_mass_flow": (("time", "side"), chamber_flow,
                                   {"units": "kg/s", "note": "line into chamber, mean over the period"}),
             "line_max_mach": (("time", "side"), mach,
-                              {"units": "1", "note": "largest Mach number of the line's flow elements "
+                              {"units": "1", "note": "largest mean Mach number of the line's flow elements "
                                                      "over the period (0 without flow elements)"}),
+            "line_exit_mach": (("time", "side"), exit_mach,
+                               {"units": "1", "note": "largest Mach number of a tube end face the flow leaves "
+                                                      "by, over the period (at most 1/sqrt(gamma), isothermal)"}),
+            "line_choked": (("time", "side"), choked > 0.5,
+                            {"note": "an end face of the line was choked during the period (exit jet at the "
+                                     "isothermal sonic speed, or an entrance the node cannot feed)"}),
             "chamber_temperature": (("time", "side"), _temperatures(cp, states), {"units": "K"}),
-            "spool_position": ("time", states[:, int(cp.pc[K.OX]) + K.X_SPOOL],
+            "spool_position": ("time", states[:, int(cp.pc[0]["ox"]) + K.X_SPOOL],
                                {"units": "1", "note": "the command itself for an ideal spool"}),
             "environment_force": ("time", force, {"units": "N"}),
             "command": ("time", commands, {"units": "1", "note": "valve command held over the period"}),
-            **{f"measured_{key}": ("time", cols[K.L_MEAS + j]) for j, key in enumerate(MEASUREMENT_KEYS)},
+            **{f"measured_{key}": ("time", log["meas"][:, j]) for j, key in enumerate(MEASUREMENT_KEYS)},
         },
         coords={"time": ("time", time, {"units": "s"}), "side": side, "state": cp.labels},
         attrs={"rate_Hz": 1.0 / dt, "substeps": nsub, "substep_s": h,
@@ -219,13 +235,13 @@ def _dataset(cp, states, log, dt, nsub, h, p_valve, p_ch):
 
 def _temperatures(cp, states) -> np.ndarray:
     """Chamber-node gas temperatures T = P V / (m R) (K) of every row of ``states``."""
-    ox = int(cp.pc[K.OX])
+    ox = int(cp.pc[0]["ox"])
     act = cp.plant.actuator
     v1, v2 = ((act.volume_1_m3, act.volume_2_m3) if isinstance(act, FixedChambers)
               else act.volumes(states[:, 0]))
     r_gas = cp.plant.air.gas_constant_J_kgK
     out = np.empty((states.shape[0], 2))
     for s, v in enumerate((v1, v2)):
-        p = states[:, int(cp.off[s, K.O_P]) + cp.node_count(s) - 1]
+        p = states[:, int(cp.ps[s]["o_p"]) + cp.node_count(s) - 1]
         out[:, s] = p * (v + cp.pv[s, cp.node_count(s) - 1]) / (states[:, ox + s] * r_gas)
     return out

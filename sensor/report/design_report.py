@@ -18,7 +18,9 @@ What it holds, each computed by the tool's own functions (nothing is re-derived 
 6. the files written beside it (:func:`geometry.export.export_design` and the design TOML
    of :func:`geometry.params.save_design`) with their sizes and SHA-256;
 7. the inputs (the design TOML, the command line), the software versions of every library
-   that computed a number and the git commit when run from a checkout.
+   that computed a number and the git commit when run from a checkout;
+8. the predicted MRI artefact (:func:`sensor.artefact.prediction.predict`): field offsets
+   near the surface, spin-echo shift, gradient-echo artefact extent, two figures.
 
 One hysteresis number throughout (:data:`HYSTERESIS_DEFINITION`): the predicted H of the
 strain-energy law. Every matplotlib figure is embedded as SVG and offered for download.
@@ -161,7 +163,7 @@ def output_paths(design: Design, out_dir: str | Path) -> list[Path]:
 
 def design_rows(design: Design) -> list[Quantity]:
     """The design's main parameters (the full set is the TOML in the inputs section)."""
-    t = design.hinge_thickness_mm[:8] if design.is_basis else design.hinge_thickness_mm
+    t = design.used_thickness_mm
     rows = [Quantity("side-link lean φ1", f"{design.phi1_deg:g}", "deg")]
     if not design.is_basis:
         rows.append(Quantity("middle-link rise φ2", f"{design.phi2_deg:g}", "deg"))
@@ -334,6 +336,51 @@ def continuum_verification(design: Design, target_output_mm: float, run: bool = 
     return dataclasses.replace(verification_from_dict(verification_to_dict(v)), figure=stress_field(design, v))
 
 
+# --- MRI artefact (sensor.artefact): section 8 ---------------------------------------------
+
+@dataclass(frozen=True)
+class ArtefactSection:
+    """The predicted MRI artefact as the report shows it: the scan, the rows, two figures
+    and :meth:`sensor.artefact.prediction.Artefact.summary` (``data``)."""
+
+    scan: str
+    rows: tuple[Quantity, ...]
+    field: EmbeddedFigure
+    image: EmbeddedFigure
+    data: dict
+
+
+def artefact_section(design: Design) -> ArtefactSection:
+    """``dacm artefact``'s prediction at its defaults (water phantom, 3 T along the sheet's
+    normal, gradient echo TE 10 ms, 130 Hz/px, 1 mm voxels, 0.5 mm field voxels)."""
+    from sensor.artefact.plots import field_figure, image_figure
+    from sensor.artefact.prediction import Protocol, predict
+
+    a = predict(design, Protocol())
+    s, p = a.summary(), a.protocol
+    ge = s["gradient_echo"]
+    rows = [Quantity("susceptibility body / fiber / mirror",
+                     " / ".join(f"{v:.2f}" for v in s["chi_ppm"].values()), "ppm",
+                     f"{s['material']}, PMMA fiber, silicon mirror; {s['medium']} {s['chi_medium_ppm']:g} ppm")]
+    rows += [Quantity(f"field offset {r['distance_mm']:g} mm from the surface", f"{r['ppm']:.3g}",
+                      "ppm", f"{r['hz']:.3g} Hz; spin-echo shift {r['spin_echo_shift_px']:.2f} px")
+             for r in s["surface_offsets"]]
+    rows.append(Quantity("gradient-echo artefact (loss > 30 %)", f"{ge['extent_mm']:.1f}", "mm",
+                         f"from the surface; {ge['volume_mm3']:.0f} mm³ outside the sensor"
+                         + (" (reaches the box: a lower bound)" if ge["reaches_fov_edge"] else "")))
+    scan = (f"{p.b0_T:g} T along the sheet's normal, gradient echo TE {p.te_ms:g} ms, "
+            f"{p.bandwidth_hz_per_px:g} Hz/px, {p.voxel_mm:g} mm voxels, in a water phantom")
+    field = EmbeddedFigure(
+        figure_data_uri(field_figure(a), "png"), f"field offset around {design.name}",
+        "The B0 offset of the body, fiber and mirror (dipole kernel by FFT, Lorentz-corrected) "
+        "on three slices; black: the sensor's outline.")
+    image = EmbeddedFigure(
+        figure_data_uri(image_figure(a), "png"), f"simulated gradient-echo image of {design.name}",
+        "Simulated gradient-echo magnitude (1: the phantom without the sensor); red: the "
+        "region losing more than 30 % of its signal (ASTM F2119), blue: the sensor's outline.")
+    return ArtefactSection(scan, tuple(rows), field, image, s)
+
+
 # --- the report --------------------------------------------------------------------------
 
 def _solve_summary(design: Design, r, q, a_kin: float) -> dict:
@@ -414,6 +461,7 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
         "render": render_figure(design, model, r, make_parts(make_layout(design))),
     }
     verification = continuum_verification(design, target_output_mm, verify)
+    artefact = artefact_section(design)
 
     # everything is computed: now write, the page last
     written = export_design(design, out)
@@ -434,7 +482,7 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
         hysteresis_definition=HYSTERESIS_DEFINITION,
         datasheet_rows=datasheet_rows(ds, cross), figures=figures, verification=verification,
         files=files, toml_text=toml_path.read_text(), versions=versions,
-        verify_limits=VERIFY_LIMITS_PCT,
+        verify_limits=VERIFY_LIMITS_PCT, artefact=artefact,
         reproduce=f"dacm report --config {toml_path.name} --target-output {target_output_mm:g}")
     write_html(html, path, force=True)
     summary = {
@@ -447,6 +495,7 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
         "datasheet": dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
         "verification": ({"status": "run", **verification.data} if verification.data
                          else {"status": "not run", "reason": verification.reason}),
+        "artefact": artefact.data,
         "files": [dataclasses.asdict(f) for f in files],
         "software": versions, "generated": generated,
     }

@@ -104,10 +104,10 @@ def file_record(path: str | os.PathLike, root: str | os.PathLike) -> FileRecord:
     return FileRecord(path.relative_to(root).as_posix(), path.stat().st_size, digest)
 
 
-def software_versions() -> dict[str, str]:
+def software_versions(libraries: tuple[str, ...] | None = None) -> dict[str, str]:
     """Versions of dacm (and its git commit when run from a checkout), Python, the platform
-    and :data:`REPORTED_LIBRARIES` (as installed; "not installed" for a library that is
-    absent)."""
+    and ``libraries`` (default :data:`REPORTED_LIBRARIES`; as installed, "not installed" for
+    one that is absent)."""
     from geometry.provenance import git_commit, version
 
     out = {"dacm": version()}
@@ -115,7 +115,7 @@ def software_versions() -> dict[str, str]:
     if commit:
         out["dacm git commit"] = commit
     out |= {"python": platform.python_version(), "platform": platform.platform()}
-    for name in REPORTED_LIBRARIES:
+    for name in REPORTED_LIBRARIES if libraries is None else libraries:
         try:
             out[name] = importlib.metadata.version(name)
         except importlib.metadata.PackageNotFoundError:

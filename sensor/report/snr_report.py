@@ -8,8 +8,10 @@ What it holds, each from the measuring code itself (nothing is re-derived here):
 3. the difference image explained: the shift and gain of b against a fitted to a - b
    (:mod:`mri.registration`), which is what makes a ring at a phantom's edge;
 4. the per-ROI table of every method (per slice for a volume, with skipped slices and why);
-5. the header checks: the protocol fields of each image side by side, and the warnings;
-6. method notes and the inputs (command, files, software versions).
+5. the header checks: the protocol fields of each image side by side, and every quality
+   warning with its code and numbers (:mod:`mri.quality`);
+6. method notes (with how the 95 % intervals are made) and the inputs (the command, each
+   file with its SHA-256 and acquisition time, the versions of what ran).
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ METHOD_NOTES = {
               "SD^2 = sum (V(i,j+1) - V(i,j))^2 / (2 n (m-1)), Noise = SD / sqrt 2; signal the "
               "mean of a (the whole image by default, background included).",
     "nema": "NEMA MS 1 subtraction: Noise = std(a - b in the ROI) / sqrt 2, Signal = mean of a "
-            "in the ROI; five 20 x 20 px boxes on the fitted phantom centre by default; the "
+            "in the ROI; five 20 x 20 px boxes on the fitted phantom centre by default (brought "
+            "in, then made smaller, when they do not fit the phantom, with a warning); the "
             "slice's SNR is the mean of the boxes' SNRs.",
     "smoothed": "McCann et al. 2013 smoothed subtraction (one image): Noise = std of the image "
                 "minus its 9 x 9 boxcar mean in the ROI, as published (reads white noise "
@@ -42,12 +45,28 @@ METHOD_NOTES = {
 }
 
 
+#: Libraries whose versions the MRI report records (what loads, measures and draws).
+MRI_LIBRARIES = ("numpy", "scipy", "pydicom", "nibabel", "scikit-image", "matplotlib", "jinja2")
+
+INTERVAL_NOTE = (
+    "Each SNR carries a 95 % interval for the sampling error of its noise estimate: a noise "
+    "sigma estimated with nu degrees of freedom has the relative standard error 1 / sqrt(2 nu) "
+    "(delta method on its chi-square distribution), and so has the SNR; nu = n - 1 for the "
+    "NEMA and smoothed methods over n pixels, 2/3 of the neighbour pairs for the thesis "
+    "method (consecutive differences share a pixel), 2 n / 2.245 for the background method "
+    "(Rayleigh air). Several ROIs' errors add in quadrature, and so do slices'; the interval is "
+    "the mean +- 1.96 standard errors. It covers noise only, not the ROI placement or the "
+    "artefacts the warnings flag.")
+
+
 def _fmt(value, spec=".2f") -> str:
     return "-" if value is None else format(value, spec)
 
 
 def _key_rows(pair) -> list[Quantity]:
-    rows = [Quantity(f"SNR {s.method}", _fmt(s.snr), "") for s in pair.result.summaries]
+    rows = [Quantity(f"SNR {s.method}", _fmt(s.snr), "",
+                     f"95 % interval {s.snr_ci95[0]:.1f} to {s.snr_ci95[1]:.1f}")
+            for s in pair.result.summaries]
     if pair.result.normalisation_factor is not None:
         rows += [Quantity(f"normalised {s.method}", _fmt(s.snr_normalised, ".0f"), "")
                  for s in pair.result.summaries[:2]]
@@ -56,15 +75,16 @@ def _key_rows(pair) -> list[Quantity]:
     return rows
 
 
-def _text(value) -> str:
-    """A header value as the table shows it: numbers to 6 significant digits."""
+def _text(value, spec=".6g") -> str:
+    """A header value as the table shows it: numbers to 6 significant digits (``spec``)."""
     if value is None:
         return "-"
     if isinstance(value, (tuple, list)):
         return " x ".join(_text(v) for v in value) if all(isinstance(v, int) for v in value) else \
-            ", ".join(_text(v) for v in value)
+            ", ".join(_text(v, spec) for v in value)
     if isinstance(value, float):
-        return f"{value:.6g}"
+        text = format(value, spec)
+        return text.lstrip("-") if float(text) == 0 else text  # no "-0.0000"
     return str(value)
 
 
@@ -86,37 +106,88 @@ def _header_rows(pair) -> list[tuple[str, str, str, str]]:
         if va is None and vb is None:
             continue
         verdict = "" if pair.b is None else ("same" if va == vb else "differs")
-        rows.append((name, _text(va), "" if pair.b is None else _text(vb), verdict))
+        spec = ".4f" if name == "orientation" else ".6g"  # direction cosines: 4 decimals
+        rows.append((name, _text(va, spec), "" if pair.b is None else _text(vb, spec), verdict))
+    return rows
+
+
+def _values_text(values: dict) -> str:
+    """A warning's numbers as one line: ``name = value`` (4 significant digits), nested
+    mappings (e.g. the outlier ROIs) flattened."""
+    def one(value):
+        if isinstance(value, float):
+            return f"{value:.4g}"
+        if isinstance(value, (list, tuple)):
+            return ", ".join(one(v) for v in value)
+        return str(value)
+
+    return "; ".join(", ".join(f"{k2} = {one(v2)}" for k2, v2 in v.items()) if isinstance(v, dict)
+                     else f"{k} = {one(v)}" for k, v in values.items())
+
+
+def _inputs(pairs) -> list[tuple[str, str, str, str]]:
+    """(role, file, acquired, SHA-256) of every input image, once each."""
+    from mri.study import input_sha256
+
+    seen, rows = set(), []
+    for pair in pairs:
+        for role, img in (("a", pair.a), ("b", pair.b)):
+            if img is not None and img.source not in seen:
+                seen.add(img.source)
+                rows.append((f"{pair.name} {role}", img.source, img.acquisition.get("acquired") or "-",
+                             input_sha256(img.source)))
     return rows
 
 
 def _difference_note(pair, slice_index: int) -> str:
-    """What a - b shows at the phantom's edge, from the fitted shift and gain."""
+    """What a - b shows at the phantom's edge, from the fitted shift and gain: the text
+    follows the numbers (a shift or gain over the limits of :mod:`mri.quality` is said to
+    matter, and whether the ring reaches a signal ROI is measured)."""
+    from scipy import ndimage
+
     from mri.phantom import find_phantom
+    from mri.quality import MAX_GAIN_PERCENT, MAX_SHIFT_PX
     from mri.registration import fit_difference
+    from mri.roi import resolve_roi
 
     a, b = pair.a.pixels[slice_index], pair.b.pixels[slice_index]
     try:
-        mask, _ = find_phantom(a.astype(float))
+        mask, _ = find_phantom(a)
     except ValueError as exc:
         return f"No phantom found to analyse the difference image ({exc})."
     fit = fit_difference(a, b, mask)
+    shift = max(abs(fit.shift_row_px), abs(fit.shift_col_px))
+    text = (f"Fitted to a - b on slice {slice_index}: b is shifted by {fit.shift_row_px:+.3f} px "
+            f"along rows and {fit.shift_col_px:+.3f} px along columns relative to a, and its "
+            f"intensity differs by {100 * fit.gain:+.3f} %. On the phantom's edge a - b has an RMS "
+            f"of {fit.edge_rms:.1f} (pixel units), {fit.edge_rms_after:.1f} once the shift and gain "
+            f"are removed, against {fit.interior_rms:.1f} inside the phantom (noise x sqrt 2). ")
+    if abs(100 * fit.gain) > MAX_GAIN_PERCENT:
+        text += (f"A gain change of {100 * fit.gain:+.1f} % (limit {MAX_GAIN_PERCENT:g} %) leaves a "
+                 "copy of the image in a - b: every subtraction SNR reads low. ")
+    if shift > MAX_SHIFT_PX:
+        return text + (
+            f"A shift of {shift:.2f} px is over the {MAX_SHIFT_PX:g} px limit: the phantom moved "
+            "(or the frequency drifted far) between the acquisitions. The edge in a - b is a "
+            "misregistration, not noise, and so is whatever structure inside the phantom moved "
+            "with it (ripples, texture): every ROI's noise is raised, not only the edge's. A "
+            "first-order fit reads a shift this large only roughly.")
+    text += ("The ring at the edge, bright on one side and dark on the opposite, is this "
+             "sub-pixel misregistration acting on the steep edge (and on its Gibbs ripples, "
+             "the same in both images otherwise). ")
+    band = ndimage.binary_dilation(mask, iterations=2) & ~ndimage.binary_erosion(mask, iterations=2)
+    reached = sorted({roi.label for specs in pair.specs.values() for spec in specs
+                      for roi in resolve_roi(spec, a, pair.a.pixel_spacing_mm, slice_index)
+                      if roi.label != "whole" and (roi.mask & band).any()})
+    text += (f"The edge band (the 2 px on each side of the edge) reaches the ROI(s) "
+             f"{', '.join(reached)}, whose noise it raises." if reached else
+             "No signal ROI but the whole image reaches the edge band (the 2 px on each side of "
+             "the edge), so the ring enters only a whole-image noise.")
     bandwidth = pair.a.acquisition.get("pixel_bandwidth_hz")
-    drift = (f" At {bandwidth:g} Hz/pixel, a shift of {max(abs(fit.shift_row_px), abs(fit.shift_col_px)):.3f} px "
-             f"along the readout is a resonance-frequency drift of about "
-             f"{max(abs(fit.shift_row_px), abs(fit.shift_col_px)) * bandwidth:.1f} Hz between the acquisitions."
-             if isinstance(bandwidth, float) else "")
-    return (
-        f"Fitted to a - b on slice {slice_index}: b is shifted by {fit.shift_row_px:+.3f} px along "
-        f"rows and {fit.shift_col_px:+.3f} px along columns relative to a, and its intensity "
-        f"differs by {100 * fit.gain:+.3f} %. On the phantom's edge a - b has an RMS of "
-        f"{fit.edge_rms:.1f} (pixel units), {fit.edge_rms_after:.1f} once the shift and gain are "
-        f"removed, against {fit.interior_rms:.1f} inside the phantom (noise x sqrt 2). A ring at "
-        "the edge that is bright on one side and dark on the opposite side is this sub-pixel "
-        "misregistration acting on the steep edge (and on its Gibbs ripples, which are the same "
-        "in both images and cancel otherwise); it is not noise, and it does not reach the "
-        f"default ROIs, which lie well inside the edge.{drift}"
-    )
+    if isinstance(bandwidth, float):
+        text += (f" At {bandwidth:g} Hz/pixel, a shift of {shift:.3f} px along the readout is a "
+                 f"resonance-frequency drift of about {shift * bandwidth:.1f} Hz.")
+    return text
 
 
 def snr_report_context(pairs, panels, comparison, command: str) -> dict:
@@ -143,11 +214,12 @@ def snr_report_context(pairs, panels, comparison, command: str) -> dict:
         pairs=pairs, key_rows=_key_rows(first), figure=figure, notes=notes,
         headers=[(p.name, _header_rows(p)) for p in pairs],
         comparison=comparison, method_notes=[(m, METHOD_NOTES[m]) for m in methods],
-        command=command, versions=software_versions(),
+        command=command, versions=software_versions(MRI_LIBRARIES), inputs=_inputs(pairs),
+        interval_note=INTERVAL_NOTE, values_text=_values_text,
         generated=datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         sections=[("results", "Results"), ("figure", "Images and ROIs"),
                   ("difference", "The difference image"), ("rois", "Per-ROI measures"),
-                  ("checks", "Header checks and warnings"), ("methods", "Methods"),
+                  ("checks", "Header checks and quality warnings"), ("methods", "Methods"),
                   ("inputs", "Inputs and software")],
     )
 

@@ -3,7 +3,9 @@
 Prints one JSON object: import_s (the modules `dacm sensor` needs), first_s (the first
 datasheet: the solver kernel's first call, cached compiled code), median_s (build_sensor,
 datasheet and cross-axis, as `dacm sensor --no-plots` computes them; median of 7) and the
-same for the image-fiber optics alone on the sensor's 241-point gap table (optics_ms).
+same for the image-fiber optics alone on the sensor's 241-point gap table (optics_ms), and
+median_s in units of the reference computation (reference.py) measured in the same run,
+with the last round's 0.5 s target in those units.
 
 Run from the repository root: python -m tests.benchmarks.datasheet
 """
@@ -44,9 +46,14 @@ def main():
         t0 = time.perf_counter()
         output_voltage(gaps, OpticsSetup())
         optics.append(time.perf_counter() - t0)
+    from tests.benchmarks.reference import in_reference, reference_s, target
+
+    ref = reference_s()
     print(json.dumps({"import_s": round(import_s, 3), "first_s": round(first_s, 3),
                       "median_s": round(float(np.median(times)), 4),
-                      "optics_ms": round(float(np.median(optics)) * 1e3, 3)}))
+                      "optics_ms": round(float(np.median(optics)) * 1e3, 3), "reference_s": round(ref, 4),
+                      "median_in_reference": in_reference(float(np.median(times)), ref),
+                      "target_median_in_reference": target("datasheet_median"), "load_average": os.getloadavg()}))
 
 
 if __name__ == "__main__":

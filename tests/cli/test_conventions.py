@@ -129,7 +129,7 @@ def test_entry_point_is_marked_for_global_completion():
 
 
 @pytest.mark.parametrize("command", ["check", "solve", "verify", "render", "sweep", "sensor",
-                                     "measure", "report", "snr", "line", "loop", "export"])
+                                     "measure", "report", "snr", "line", "loop", "export", "artefact"])
 def test_every_computing_command_has_json(command):
     from sensor.cli import build_parser
 

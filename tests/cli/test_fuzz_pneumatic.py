@@ -36,6 +36,9 @@ def _loop_cases() -> list[list[str]]:
     cases += [["--segments", v] for v in BAD_INTEGERS + ["0", "1001"]]
     cases += [["--reference", r] for r in ("ramp", "sine:nanHz", "sine:1e308Hz", "sine:-1Hz", "square:xHz",
                                            "sine:1e-300Hz")]
+    cases += [[f, v] for f in ("--stiction", "--coulomb") for v in BAD_NUMBERS + ["101"]]
+    cases += [["--spool-bandwidth", v] for v in ("0", "-1", "nan")]
+    cases += [["--stiction", "0.01", "--coulomb", "0.05"], ["--study", "controllers", "--energy"]]
     cases += [["--controller", "pid"], ["--observer", "kalman"], ["--valve", "foo"], ["--study", "chapter9"],
               ["--sensor", "sample-z"], ["--study", "observer", "--duration", "1e308"],
               ["--study", "controllers", "--segments", "1000000000000"]]

@@ -116,3 +116,22 @@ def test_bad_input_is_one_line_exit_2(capsys, flag, value, words):
     assert main(["line", *[x for kv in args.items() for x in kv], "--no-plots"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("dacm line: error: ") and words in err
+
+
+def test_json_shows_choking_the_steady_discharge_against_the_references(capsys):
+    # 4 mm x 1 m from 6 bar: the steady discharge chokes (exit Mach 1/sqrt(gamma)), its flow in
+    # kg/s within 2 % of the isothermal reference the JSON carries (9.23 g/s, isentropic entrance)
+    # and 4-6 % below Fanno (9.65 g/s, the adiabatic assumption); every model's step metrics
+    # carry the exit-face Mach and the choked flag beside the element Mach.
+    out = _json(capsys, "--length", "1", "--bore", BORE, "--volume", "4.5e-5", "--pressure", "6e5",
+                "--model", "distributed,dead-volume", "--points", "50")
+    dis = out["discharge"]
+    assert dis["choked"] is True and dis["exit_mach"] == pytest.approx(1 / math.sqrt(AIR.gamma), rel=1e-6)
+    assert dis["max_mach"] < dis["exit_mach"]
+    iso, fan = dis["references"]["isothermal"], dis["references"]["fanno"]
+    assert iso["mass_flow_kg_s"] == pytest.approx(9.23e-3, rel=0.01) and fan["mass_flow_kg_s"] == pytest.approx(9.65e-3, rel=0.01)
+    assert dis["mass_flow_kg_s"] == pytest.approx(iso["mass_flow_kg_s"], rel=0.02)
+    assert -6.0 < fan["deviation_pct"] < -4.0
+    for name, m in out["step"]["models"].items():
+        assert {"max_mach", "max_exit_mach", "choked"} <= set(m)
+    assert out["step"]["models"]["dead-volume"]["choked"] is False

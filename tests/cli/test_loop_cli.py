@@ -7,7 +7,8 @@ import pytest
 
 from sensor.cli import main
 from sensor.errors import SensorError
-from sensor.pneumatic.studies import DacmForceSensor, Setup, run
+from sensor.pneumatic.dacm_sensor import DacmForceSensor
+from sensor.pneumatic.experiment import Setup, run
 
 FAST = ["--line-length", "1", "--segments", "4", "--duration", "2"]
 
@@ -36,6 +37,22 @@ def test_line_model_json_has_the_virtual_input_mse(capsys):
     assert set(out["gains"]) == {"lam_per_s", "kp1", "kp2_per_s", "ki2_per_s2", "flow_rate_per_s"}   # section 5.4.2
     assert out["gains"]["flow_rate_per_s"] > 0                 # ours: line-flow damping k_m
     assert out["line_model_pressure_mse_kPa2"] < out["pressure_mse_kPa2"]     # Figure 37's claim
+
+
+def test_friction_spool_and_energy_flags_reach_the_plant(capsys):
+    # the thesis' 0.25 N stiction, a 100 Hz spool and the energy equation: the JSON echoes them,
+    # and the plant built from the same Setup carries them (stick-slip on, spool first order at
+    # 2 pi 100 rad/s, energy equation with the stated wall conductance)
+    from sensor.pneumatic.experiment import ENERGY_WALL_W_K, build_plant
+    assert main(["loop", *FAST, "--stiction", "0.25", "--coulomb", "0.1", "--spool-bandwidth", "100", "--energy",
+                 "--json", "--no-plots"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["stiction_N"], out["coulomb_N"], out["spool_bandwidth_Hz"], out["energy"]) == (0.25, 0.1, 100.0, True)
+    pc = build_plant(Setup(stiction_N=0.25, coulomb_N=0.1, spool_bandwidth_Hz=100.0, energy=True)).compile().pc[0]
+    assert pc["stick"] and pc["static_friction"] == 0.25 and pc["coulomb"] == 0.1
+    assert pc["spool_order"] == 1 and pc["spool_w"] == pytest.approx(2 * math.pi * 100.0)
+    assert pc["energy"] and list(pc["wall_ha"]) == [ENERGY_WALL_W_K, ENERGY_WALL_W_K]
+    assert math.isfinite(out["force_mse_N2"]) and out["status"] in ("settled", "limit_cycle", "unsettled")
 
 
 @pytest.mark.parametrize("flag,value,needle", [("--controller", "pid", "--controller 'pid'"),
@@ -69,7 +86,7 @@ def test_dacm_sensor_in_the_loop_reads_the_contact_force():
     # the hysteresis band (half the loop height, 2.5 % of the range) plus noise of the true force.
     fs = DacmForceSensor("sample-a-as-cut")
     from sensor.pneumatic.cylinder import spring_contact
-    from sensor.pneumatic.studies import series_spring
+    from sensor.pneumatic.dacm_sensor import series_spring
     s = Setup(reference="sine:1Hz", amplitude_N=0.35 * fs.range_N, offset_N=0.5 * fs.range_N, line_length_m=1.0,
               segments=4, duration_s=2.0, force_sensor=fs,
               environment=spring_contact(series_spring(2000.0, fs.stiffness_N_m), 0.025))
@@ -92,16 +109,18 @@ def test_loop_with_a_dacm_sensor_picks_a_reference_within_its_range(capsys):
 
 
 def test_progress_only_on_a_terminal_and_never_with_quiet(monkeypatch, capsys):
-    from sensor.pneumatic.studies import console_progress
-    with console_progress("study") as progress:          # pytest's stderr is not a terminal
-        assert progress is None
+    from sensor.cli.progress import counting
+    with counting("study") as progress:          # pytest's stderr is not a terminal: nothing drawn
+        progress(1, 2, "smc sine:1Hz 5 m")
+    assert capsys.readouterr() == ("", "")
     monkeypatch.setattr("sys.stderr.isatty", lambda: True)
-    with console_progress("study", quiet=True) as progress:
-        assert progress is None
-    with console_progress("study") as progress:
+    with counting("study", quiet=True) as progress:
+        progress(1, 2, "smc sine:1Hz 5 m")
+    assert capsys.readouterr() == ("", "")
+    with counting("study") as progress:
         progress(1, 2, "smc sine:1Hz 5 m")
         progress(2, 2, "smc sine:2Hz 5 m")
-    assert capsys.readouterr().out == ""                 # the bar goes to stderr only
+    assert capsys.readouterr().out == ""                 # the display goes to stderr only
 
 
 def test_default_duration_settles(capsys):

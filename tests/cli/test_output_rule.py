@@ -29,7 +29,7 @@ CASES = {
               "sensor.design_space.execution:run_sweep"),
     "line": (LINE, "line-step.png", "sensor.pneumatic.line_response:analyse"),
     "loop": ([], "loop.png", "sensor.pneumatic.studies:run"),
-    "snr": (["a.png", "b.png", "--figure", "{out}/pair.png"], "pair.png", "mri.study:measure_files"),
+    "snr": (["a.png", "b.png", "--figure", "{out}/pair.png"], "pair.png", "mri.study:measure_pair"),
     "design": (["--range", "5"], "design.toml", "sensor.design_space.optimise:optimise"),
 }
 

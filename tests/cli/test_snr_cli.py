@@ -103,7 +103,7 @@ def test_low_snr_warns_about_the_rician_bias(capsys, tmp_path):
     np.save(tmp_path / "l2.npy", phantom(300, 6)[0])
     status, _, err = run(capsys, tmp_path / "l1.npy", tmp_path / "l2.npy", "--roi", "central-box:60")
     assert status == 0
-    assert err.startswith("dacm snr: warning: SNR") and "Rician" in err
+    assert err.startswith("dacm snr: warning: [rician_bias] SNR") and "Rician" in err
 
 
 def _bad_inputs(tmp_path, files):

@@ -53,13 +53,13 @@ def test_linear_limit_strain_energy_is_k_out_x_squared_over_2A():
 def test_at_equal_range_the_dacm_needs_A_times_less_strain_energy_in_the_linear_limit():
     """A DACM and a basis body scaled to the same k_out (its hinges 1-8 thickened until
     its range matches): SE_dacm / SE_basis = A_basis / A_dacm within 0.5 %."""
-    from sensor.design_space.optimise import DesignProblem, evaluate
+    from sensor.design_space.optimise import DesignProblem, scale_to_range
 
     x = 0.005
     dacm = qualify(solve(build_beam_model(make_design(24, 20)), x))
-    problem = DesignProblem(dacm.range_N, target_output_mm=x, body="basis", pairs=(tuple(range(1, 9)),))
-    basis = evaluate(problem, np.array([[24.0]]))[0]
-    qb = qualify(solve(build_beam_model(basis.design), x))
+    problem = DesignProblem(dacm.range_N, travel_mm=x, body="basis", pairs=(make_design(24, None).used_hinges,))
+    basis = problem.design(scale_to_range(problem, np.array([[24.0, np.log(0.5)]]))[0])
+    qb = qualify(solve(build_beam_model(basis), x))
     assert qb.range_N == pytest.approx(dacm.range_N, rel=2e-3)
     assert dacm.strain_energy_mJ / qb.strain_energy_mJ == pytest.approx(qb.amplification / dacm.amplification,
                                                                         rel=5e-3)

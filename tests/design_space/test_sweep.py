@@ -161,6 +161,38 @@ def test_dask_cluster_equals_serial(serial):
     _same(serial, ds)
 
 
+def test_dask_rows_are_released_once_merged():
+    """The cluster does not keep the rows the sweep has merged: when the last row arrives,
+    the scheduler holds at most a few results in memory (it held every finished row while
+    the sweep kept its futures), so the workers' memory does not grow with the grid."""
+    distributed = pytest.importorskip("distributed")
+    spec = SweepSpec(hinge_sets=("05-03",), phi1=Grid(12, 28, 12), phi2=Grid(8, 48, 3))
+    held = []
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        class Count:
+            def start(self, total):
+                pass
+
+            def advance(self, n):
+                held.append(sum(t.state == "memory" for t in cluster.scheduler.tasks.values()))
+
+            def stop(self):
+                pass
+
+        run_sweep(spec, "test", scheduler=cluster.scheduler_address, progress=Count())
+    assert len(held) == 12 and max(held[-4:]) <= 3, held
+
+
+def test_sweep_size_is_bounded_before_anything_is_allocated():
+    from sensor.design_space.spec import MAX_CELLS
+
+    n = int((MAX_CELLS / 2) ** 0.5)  # two hinge sets, n x (n + 1) cells each with the basis
+    assert SweepSpec(phi1=Grid(5, 33, n - 1), phi2=Grid(4, 56, n - 1)).phi1.n == n - 1
+    with pytest.raises(SweepError, match=f"at most {MAX_CELLS} cells"):
+        SweepSpec(phi1=Grid(5, 33, n + 1), phi2=Grid(4, 56, n + 1))
+
+
 def test_unreachable_scheduler_fails_fast():
     import time
     t0 = time.monotonic()

@@ -46,7 +46,7 @@ def test_field_reproduces_the_solved_nodes(sample_b):
             f = displacement_field(model.nodes[ends], [p], [mo], model, result)
             np.testing.assert_allclose(f, result.deformed_nodes[ends] - model.nodes[ends],
                                        rtol=0, atol=1e-9, err_msg=p.name)
-    assert sum(mo.member >= 0 for mo in motions) == 20    # 12 hinges, 6 links, 2 plate halves
+    assert sum(mo.member >= 0 for mo in motions) == 22    # 12 hinges, 6 links, 2 plate and 2 platform halves
 
 
 def test_field_is_continuous_across_part_boundaries(sample_b):
@@ -110,8 +110,11 @@ def test_member_strain_energies_add_up_to_the_solver_total(sample_b):
     sed = strain_energy_density(model, result)
     hinge = np.array([k == "hinge" for k in model.member_kind])
     plate = np.array([n.startswith("top plate ") for n in model.member_name])
-    link = np.array([k == "link" for k in model.member_kind]) & ~plate
+    platform = np.array([n.startswith("platform ") for n in model.member_name])
+    link = np.array([k == "link" for k in model.member_kind]) & ~plate & ~platform
     assert sed[link].max() < 0.1 * sed[hinge].min()
+    # the platform bends too, far less than the plate: it carries the middle hinges' moments
+    assert 0 < U[platform].sum() < 0.2 * U[plate].sum()
     # the top plate bends (its two halves are compliant members): in a stiff, highly
     # amplifying body such as sample B as cut (its filleted hinges stiffer than drawn) it
     # holds about a fifth of the energy (measured 0.206 of 0.880 mJ), a third of what the
@@ -155,7 +158,8 @@ def test_magnified_picture_never_draws_the_platform_through_the_fiber_post(sampl
     outlines = rigid_outlines(parts, part_motions(parts, model), model, result)
     limit = design.fiber_clearance_mm / result.output_travel_mm
     assert overlapping_parts(outlines, 0.99 * limit) == []
-    assert overlapping_parts(outlines, 1.01 * limit) == [("fiber post", "platform")]
+    assert set(overlapping_parts(outlines, 1.01 * limit)) == {("fiber post", "platform left"),
+                                                               ("fiber post", "platform right")}
     assert picture_scale(outlines, 1.0, max(design.width_mm, design.height_mm)) == 1.0
     with pytest.raises(SensorInputError, match="scale = 2: .*fiber post through the platform"):
         picture_scale(outlines, 1.0, 30.0, 2.0)

@@ -245,7 +245,7 @@ def test_nifti_result_does_not_depend_on_storage_order(tmp_path):
     import nibabel
 
     from mri.roi import parse_roi
-    from mri.snr import measure_pair
+    from mri.snr import measure_arrays
     from tests.mri.phantoms import noisy_pair, phantom
 
     a, b = noisy_pair(phantom(shading=("linear", 0.4), chord_depth=10), 20.0, seed=2)
@@ -264,7 +264,7 @@ def test_nifti_result_does_not_depend_on_storage_order(tmp_path):
             nibabel.save(nibabel.Nifti1Image(pixels[rows].T[:, :, None].astype(np.float32), affine), path)
             images.append(load_image(path))
         np.testing.assert_array_equal(images[0].pixels[0], a.astype(np.float32))
-        result = measure_pair(images[0].pixels, images[1].pixels, images[0].pixel_spacing_mm,
+        result = measure_arrays(images[0].pixels, images[1].pixels, images[0].pixel_spacing_mm,
                               {"nema": (parse_roi("nema5"),), "thesis": (parse_roi("whole"),)})
         results.append((images[0].orientation, images[0].position_mm,
                         [s.snr for s in result.summaries]))
@@ -401,14 +401,14 @@ def test_non_numeric_geometry_is_one_clear_error(tmp_path, field, value, message
 def test_huge_pixel_values_end_in_an_error_naming_the_stage(tmp_path):
     from mri.errors import MeasurementError
     from mri.roi import parse_roi
-    from mri.snr import measure_pair
+    from mri.snr import measure_arrays
 
     rng = np.random.default_rng(0)
     a = 1e305 * (1 + 0.1 * rng.random((1, 32, 32)))
     b = 1e305 * (1 + 0.1 * rng.random((1, 32, 32)))
     for method, roi in (("nema", "central-box:10"), ("thesis", "whole")):
         with pytest.raises(MeasurementError, match="overflow float64") as info:
-            measure_pair(a, b, None, {method: (parse_roi(roi),)})
+            measure_arrays(a, b, None, {method: (parse_roi(roi),)})
         assert "noise of ROI" in str(info.value) or "sum" in str(info.value)
 
 

@@ -19,7 +19,7 @@ from mri.image import MriImage
 from mri.io import load_image
 from mri.normalise import NormalisationInputs, normalisation_factor, normalisation_inputs
 from mri.roi import parse_roi
-from mri.snr import RAYLEIGH_FACTOR, magnitude_snr, measure_pair, smoothed_noise, smoothed_noise_image
+from mri.snr import RAYLEIGH_FACTOR, magnitude_snr, measure_arrays, smoothed_noise, smoothed_noise_image
 from tests.mri.phantoms import noisy_pair, phantom
 
 #: For white noise, x - boxcar_K(x) has variance sigma^2 (1 - 1/K^2): 80/81 at K = 9.
@@ -50,7 +50,7 @@ def test_smoothed_recovers_the_snr_of_one_image(true_snr, shading):
     sigma = 10.0
     truth = phantom(signal=true_snr * sigma, shading=shading)
     a, _ = noisy_pair(truth, sigma, seed=int(true_snr), rician=False)
-    result = measure_pair(a[None], None, None, {"smoothed": specs("phantom:10")})
+    result = measure_arrays(a[None], None, None, {"smoothed": specs("phantom:10")})
     summary = result.summary("smoothed")
     assert result.difference_percent is None and summary.noise == pytest.approx(sigma * SMOOTHED_FACTOR, rel=0.02)
     mask_mean = summary.signal  # the mean of the truth under the ROI is the true signal
@@ -60,7 +60,7 @@ def test_smoothed_recovers_the_snr_of_one_image(true_snr, shading):
 def test_smoothed_on_a_pair_measures_each_image():
     sigma = 10.0
     a, b = noisy_pair(phantom(signal=500.0), sigma, seed=3)
-    result = measure_pair(a[None], b[None], None, {"smoothed": specs("nema5")})
+    result = measure_arrays(a[None], b[None], None, {"smoothed": specs("nema5")})
     (method_a, method_b) = result.slices[0].methods
     assert (method_a.image, method_b.image) == ("a", "b")
     assert result.summary("smoothed").snr == pytest.approx((method_a.snr + method_b.snr) / 2)
@@ -71,7 +71,7 @@ def test_smoothed_rician_bias_at_low_snr():
     # boxcar factor. Central disc of ~25 000 pixels: 1 % error, 3 % tolerance.
     sigma, true_snr = 10.0, 3.0
     a, _ = noisy_pair(phantom(signal=true_snr * sigma, centre=(127.5, 127.5), radius=110), sigma, seed=9)
-    result = measure_pair(a[None], None, None, {"smoothed": specs("central-circle:180")})
+    result = measure_arrays(a[None], None, None, {"smoothed": specs("central-circle:180")})
     expected = magnitude_snr(true_snr) / SMOOTHED_FACTOR
     assert expected / true_snr > 1.08
     assert result.summary("smoothed").snr == pytest.approx(expected, rel=0.03)
@@ -83,7 +83,7 @@ def test_background_method_recovers_sigma_from_rayleigh_air():
     sigma, signal = 8.0, 800.0
     truth = phantom(shape=(512, 512), centre=(255.5, 255.5), radius=180.0, signal=signal)
     a, _ = noisy_pair(truth, sigma, seed=11)
-    result = measure_pair(a[None], None, None, {"background": specs("nema5:40:100")})
+    result = measure_arrays(a[None], None, None, {"background": specs("nema5:40:100")})
     summary = result.summary("background")
     assert summary.noise == pytest.approx(sigma, rel=0.025)
     assert summary.snr == pytest.approx(signal / sigma, rel=0.03)
@@ -97,20 +97,20 @@ def test_background_method_assumes_magnitude_noise():
     sigma = 8.0
     truth = phantom(shape=(512, 512), centre=(255.5, 255.5), radius=180.0, signal=800.0)
     a, _ = noisy_pair(truth, sigma, seed=12, rician=False)
-    result = measure_pair(a[None], None, None, {"background": specs("nema5:40:100")})
+    result = measure_arrays(a[None], None, None, {"background": specs("nema5:40:100")})
     assert result.summary("background").noise == pytest.approx(sigma / RAYLEIGH_FACTOR, rel=0.025)
 
 
 def test_background_corner_touching_the_phantom_is_refused():
     a, _ = noisy_pair(phantom(radius=125.0, centre=(127.5, 127.5)), 5.0, seed=2)
     with pytest.raises(RoiError, match="corner box .* comes within 3 px of the phantom"):
-        measure_pair(a[None], None, None, {"background": specs("nema5")}, specs("corners:60"))
+        measure_arrays(a[None], None, None, {"background": specs("nema5")}, specs("corners:60"))
 
 
 def test_pair_methods_need_two_images():
     a, _ = noisy_pair(phantom(), 5.0, seed=2)
     with pytest.raises(MeasurementError, match="needs a pair"):
-        measure_pair(a[None], None, None, {"nema": specs("nema5")})
+        measure_arrays(a[None], None, None, {"nema": specs("nema5")})
 
 
 # --------------------------------------------------------------------------- normalised SNR
@@ -137,7 +137,7 @@ def test_normalised_snr_is_the_same_for_protocols_of_equal_efficiency():
         sigma = np.sqrt(inputs.pixel_bandwidth_hz * inputs.readout_samples /
                         (inputs.averages * inputs.phase_steps * inputs.repetition_time_ms))
         a, b = noisy_pair(phantom(signal=100.0 * volume), sigma, seed, rician=False)
-        result = measure_pair(a[None], b[None], None, {"nema": specs("phantom:10")},
+        result = measure_arrays(a[None], b[None], None, {"nema": specs("phantom:10")},
                               normalisation_factor=normalisation_factor(inputs))
         return result.summary("nema")
 

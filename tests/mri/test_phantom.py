@@ -3,8 +3,8 @@ air bubble, with inserts, rectangles) and against the centre hazen pins for the 
 
 Tolerance: 0.6 px on the centre. The outline is found to the pixel and a circle fit over
 ~700 outline points averages that quantisation down; partial-volume edge pixels under strong
-shading move the outline by up to ~0.3 px on the dark side (the threshold is a fixed
-fraction of the bright level), and a rectangle's sides are medians of whole pixels (+-0.5 px).
+shading move the outline by up to ~0.3 px on the dark side (a pixel joins the mask when its
+share of the edge lifts it over the threshold, which is set by the air's noise), and a rectangle's sides are medians of whole pixels (+-0.5 px).
 The naive method (Otsu mask, holes filled, centroid) is run on the same images to show that
 the cases are hard: it misses by 2-8 px.
 """
@@ -16,7 +16,21 @@ import pytest
 from scipy import ndimage
 
 from mri.errors import BoxOutsidePhantomError
-from mri.phantom import _median, above, fill_holes, find_phantom, fit_circle, largest_component, outline_points
+from mri.phantom import (
+    AIR_CORNER_DIVISOR,
+    AIR_SIGMAS,
+    CEILING_FRACTION,
+    FLOOR_FRACTION,
+    _median,
+    above,
+    air_threshold,
+    detection_threshold,
+    fill_holes,
+    find_phantom,
+    fit_circle,
+    largest_component,
+    outline_points,
+)
 from mri.roi import parse_roi, resolve_roi
 from tests.mri.phantoms import noisy_pair, phantom
 
@@ -72,22 +86,49 @@ def test_nema5_boxes_are_measured_on_a_dark_centre_and_an_insert():
     assert [r.n_pixels for r in rois] == [400] * 5
 
 
-def test_a_box_that_truly_leaves_the_phantom_is_refused_with_the_boxes_to_draw():
+def test_a_given_layout_that_leaves_the_phantom_is_refused_with_the_boxes_to_draw():
     a, _ = noisy_pair(phantom(centre=CENTRE, radius=45.0), 20.0, seed=4)
     with pytest.raises(BoxOutsidePhantomError, match="upper-left, lower-left, upper-right, "
                        "lower-right box") as info:
-        resolve_roi(parse_roi("nema5"), a, None)
+        resolve_roi(parse_roi("nema5:20:40"), a, None)
     assert len(info.value.rois) == 5 and info.value.fit.shape == "circle"
     # the same boxes fit once they are brought in
     assert len(resolve_roi(parse_roi("nema5:20:20"), a, None)) == 5
 
 
-def test_a_box_over_a_notch_is_refused():
+def test_the_default_layout_shrinks_to_the_largest_that_fits_and_says_so():
+    # radius 45: 20 px boxes fit at offset o when (o + 10) sqrt 2 <= ~45, i.e. o <= 21
+    a, _ = noisy_pair(phantom(centre=CENTRE, radius=45.0), 20.0, seed=4)
+    rois = resolve_roi(parse_roi("nema5"), a, None)
+    note = rois[0].note
+    assert note.code == "boxes_shrunk" and note.values["size_px"] == 20
+    assert 18 <= note.values["offset_px"] <= 22, note
+    assert all(r.box[2:] == (20, 20) for r in rois) and all(r.note is None for r in rois[1:])
+    # every box inside the disc (corner distance from the true centre below the radius)
+    for r in rois:
+        row, col, h, w = r.box
+        corners = [(row - 0.5 + dr, col - 0.5 + dc) for dr in (0, h) for dc in (0, w)]
+        assert max(np.hypot(y - CENTRE[0], x - CENTRE[1]) for y, x in corners) <= 45.0 + 0.5
+
+
+def test_a_phantom_too_small_for_five_px_boxes_is_refused():
+    # radius 9 px: five 5 px boxes (centre and diagonals) need about 2.5 x 5 sqrt 2 = 17.7 px
+    a, _ = noisy_pair(phantom(shape=(64, 64), centre=(31.3, 32.6), radius=9.0), 20.0, seed=4)
+    with pytest.raises(BoxOutsidePhantomError, match="even 5 x 5 px boxes do not fit"):
+        resolve_roi(parse_roi("nema5"), a, None)
+
+
+def test_a_box_over_a_notch_is_refused_or_brought_in():
     # A notch cut 30 px into the upper right: the upper-right box (rows 72-91, cols 164-183)
-    # falls into the air of the notch.
+    # falls into the air of the notch. The given layout is refused; the default one moves
+    # its boxes inwards, clear of the notch.
     a, _ = noisy_pair(phantom(centre=CENTRE, notch=(45, 50, 40)), 20.0, seed=5)
     with pytest.raises(BoxOutsidePhantomError, match="the upper-right box"):
-        resolve_roi(parse_roi("nema5"), a, None)
+        resolve_roi(parse_roi("nema5:20:40"), a, None)
+    mask, _ = find_phantom(a)
+    rois = resolve_roi(parse_roi("nema5"), a, None)
+    assert rois[0].note.code == "boxes_shrunk" and rois[0].note.values["offset_px"] < 40
+    assert all(mask[r.box[0]:r.box[0] + r.box[2], r.box[1]:r.box[1] + r.box[3]].all() for r in rois)
 
 
 def test_flipped_image_gives_the_flipped_layout():
@@ -99,7 +140,7 @@ def test_flipped_image_gives_the_flipped_layout():
 
 
 def test_fill_holes_and_largest_component_match_scipy():
-    # fill_holes labels only the bounding box (faster); it must equal scipy's fill.
+    # fill_holes labels only the hole candidates (faster); it must equal scipy's fill.
     rng = np.random.default_rng(3)
     for _ in range(5):
         blob = np.zeros((60, 70), dtype=bool)
@@ -123,9 +164,22 @@ def test_largest_component_with_few_regions_and_ties():
     np.testing.assert_array_equal(largest_component(mask), labels == labels[37, 40])
 
 
+def test_fill_holes_equals_scipy_on_random_masks():
+    # many small regions, holes next to open bays, empty rows and columns inside the box:
+    # every case of the candidate test (a gap in both the row and the column) and of the
+    # labelling of candidates; exact equality with scipy's flood of the background
+    rng = np.random.default_rng(5)
+    for k in range(400):
+        mask = rng.random(tuple(rng.integers(2, 30, 2))) < rng.uniform(0.2, 0.9)
+        if k % 2:
+            mask = ndimage.binary_opening(mask)
+        np.testing.assert_array_equal(fill_holes(mask), ndimage.binary_fill_holes(mask))
+
+
 def test_fill_holes_without_labelling_matches_scipy():
-    # masks whose rows (or columns) are single runs skip the labelling: open notches and
-    # bumps are no holes; a ring closed in both directions is refilled by the labelling.
+    # masks without a pixel that has a gap in both its row and its column skip the
+    # labelling: open notches and bumps are no holes; a ring closed in both directions is
+    # refilled by the labelling.
     r, c = np.ogrid[:80, :90]
     disc = (r - 40) ** 2 + (c - 45) ** 2 <= 30**2
     notched = disc & ~((np.abs(c - 45) < 4) & (r < 30))  # open at the top: rows have 2 runs
@@ -209,3 +263,22 @@ def test_large_slices_are_searched_at_half_resolution_with_the_same_centre():
     mask, fit = find_phantom(a)
     assert mask.shape == a.shape and fit.shape == "circle"
     assert np.hypot(fit.centre_px[0] - 250.3, fit.centre_px[1] - 260.7) < 0.6
+
+
+def test_thresholds_equal_numpys_mean_std_median_and_order_statistics():
+    # the corner mean and std come from one sum and the percentiles from two single
+    # partitions: the same numbers, to the bit, as np.mean, np.std, np.median and a sort
+    rng = np.random.default_rng(8)
+    for shape, dtype in (((64, 64), np.float32), ((256, 200), np.float32), ((37, 50), np.float64)):
+        image = phantom(shape=shape, centre=(shape[0] / 2, shape[1] / 2), radius=min(shape) / 3) + rng.rayleigh(5.0, shape)
+        image = image.astype(dtype)
+        side = min(shape) // AIR_CORNER_DIVISOR
+        corners = [image[:side, :side], image[:side, -side:], image[-side:, :side], image[-side:, -side:]]
+        air = float(np.median([np.mean(c, dtype=np.float64) + AIR_SIGMAS * np.std(c, dtype=np.float64)
+                               for c in corners]))
+        assert air_threshold(image) == air
+        sample = np.sort(image.ravel()[::4] if image.size >= 4096 else image.ravel())
+        n = sample.size - 1
+        lo, hi = float(sample[round(n * 0.01)]), float(sample[round(n * 0.99)])
+        expected = min(max(air, lo + FLOOR_FRACTION * (hi - lo)), lo + CEILING_FRACTION * (hi - lo))
+        assert detection_threshold(image) == expected

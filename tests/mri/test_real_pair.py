@@ -23,7 +23,7 @@ from mri.io import load_image
 from mri.phantom import find_phantom
 from mri.pair import check_pair
 from mri.roi import parse_roi
-from mri.snr import measure_pair
+from mri.snr import measure_arrays
 from sensor.cli import main
 
 PAIR = Path(__file__).resolve().parents[1] / "data" / "mri" / "siemens_aera_pair"
@@ -57,7 +57,7 @@ def test_real_pair_metadata_matches_its_readme(pair):
 
 def test_real_pair_pinned_results(pair):
     a, b = pair
-    result = measure_pair(
+    result = measure_arrays(
         a.pixels, b.pixels, a.pixel_spacing_mm,
         {"thesis": (parse_roi("whole"),), "nema": (parse_roi("nema5"),)},
     )
@@ -70,7 +70,7 @@ def test_real_pair_pinned_results(pair):
 
 def test_real_pair_nema_agrees_with_the_matlab_reference(pair):
     a, b = pair
-    result = measure_pair(a.pixels, b.pixels, a.pixel_spacing_mm, {"nema": (parse_roi("nema5"),)})
+    result = measure_arrays(a.pixels, b.pixels, a.pixel_spacing_mm, {"nema": (parse_roi("nema5"),)})
     assert result.summary("nema").snr == pytest.approx(MATLAB_RAW_SNR, rel=0.02)
     _, fit = find_phantom(a.pixels[0])
     assert fit.shape == "circle"

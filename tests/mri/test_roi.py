@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from mri.errors import RoiError
-from mri.roi import parse_roi, phantom_mask, resolve_roi
+from mri.phantom import find_phantom
+from mri.roi import parse_roi, resolve_roi
 
 
 def disc_image(size=128, radius=40, centre=(64, 70), value=100.0, seed=0):
@@ -54,7 +55,7 @@ def test_whole_and_mask_file():
 
 def test_phantom_mask_finds_the_disc_and_erodes_it():
     image, inside = disc_image()
-    found = phantom_mask(image)
+    found, _ = find_phantom(image)
     assert np.sum(found ^ inside) < 0.02 * inside.sum()
     (eroded,) = resolve("phantom:5", image)
     # disc of radius 40 eroded by 5 px: radius 35 (pixel-count tolerance 3 %)

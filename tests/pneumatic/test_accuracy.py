@@ -81,10 +81,11 @@ def test_end_stop_impacts_at_the_automatic_substep():
 def test_square_wave_fronts_within_the_line_discretisation():
     # Square-wave commands send steep fronts down the line; at a front the error grows about
     # linearly with the substep (previous stepper at 0.1 ms: 0.135 %, this one at 0.25 ms:
-    # 0.36 % - here the larger substep does lose accuracy).  The limit is the line's own
-    # discretisation: the 20-segment line differs from an 80-segment one by 11.6 % of the swing
-    # on the same run (at the valve port, as a front arrives), and the substep may add at most a
-    # twentieth of that.
+    # 0.36 % - here the larger substep does lose accuracy; 0.35 % with the isentropic entrance of
+    # issue 25).  The limit is the line's own discretisation: the 20-segment line differs from an
+    # 80-segment one by 5.5 % of the swing on the same run (at the valve port, as a front arrives;
+    # 11.6 % before the entrance loss, when the first element took the port's stagnation pressure
+    # as its static pressure), and the substep may add at most a tenth of that.
     env = mass_spring_damper(0.0, 5000.0, 20.0, 0.025)
 
     def square(t, m):
@@ -94,7 +95,7 @@ def test_square_wave_fronts_within_the_line_discretisation():
     assert h == MAX_SUBSTEP_DISTRIBUTED_S
     ref = simulate(cp, square, 1.0, sensors=ideal_sensors(), substep_s=FINE_S)
     fine_line = simulate(line_plant(env, segments=80), square, 1.0, sensors=ideal_sensors(), substep_s=FINE_S)
-    assert err < 0.05 * pressure_error(ref, fine_line)
+    assert err < 0.10 * pressure_error(ref, fine_line)
     assert err_half < 0.75 * err
 
 

@@ -9,14 +9,6 @@ from sensor.errors import SensorError
 from sensor.pneumatic.cylinder import Cylinder, mass_spring_damper
 from sensor.pneumatic.lines import DeadVolume
 from sensor.pneumatic.observer import (
-    Q_A1,
-    Q_A2,
-    Q_BCRIT,
-    Q_KREF,
-    Q_PATM,
-    Q_PSUP,
-    Q_RLAM,
-    Q_RT,
     ObserverModel,
     PressureObserver,
     actuator_force,
@@ -34,17 +26,17 @@ MODEL = ObserverModel.from_plant(PLANT)
 
 
 def _flows(model, u, p1, p2):
-    q, args = model.q, (model.grid, model.supply_conductance, model.exhaust_conductance)
-    common = (q[Q_BCRIT], q[Q_RLAM], q[Q_PSUP])
-    m1 = port_flow(u, *args, *common, p1, q[Q_PATM], q[Q_KREF])[0]
-    m2 = port_flow(-u, *args, *common, p2, q[Q_PATM], q[Q_KREF])[0]
+    q, args = model.params, (model.grid, model.supply_conductance, model.exhaust_conductance)
+    common = (q["b_crit"], q["r_lam"], q["p_supply"])
+    m1 = port_flow(u, *args, *common, p1, q["p_atm"], q["k_ref"])[0]
+    m2 = port_flow(-u, *args, *common, p2, q["p_atm"], q["k_ref"])[0]
     return m1, m2
 
 
 def _coupled(model, z, u, k, delta=lambda t: 0.0):
     """True isothermal chambers d(P V)/dt = m R T (eq 15, r = 1) and the observer of eq 22 fed
     the true actuator force plus delta(t)."""
-    q = model.q
+    q = model.params
     args = (model.grid, model.supply_conductance, model.exhaust_conductance)
 
     def rhs(t, y):
@@ -52,19 +44,19 @@ def _coupled(model, z, u, k, delta=lambda t: 0.0):
         m1, m2 = _flows(model, u(t), y[0] / v1, y[1] / v2)
         fp = actuator_force(y[0] / v1, y[1] / v2, q) + delta(t)
         d = observer_rhs(y[2], y[3], u(t), v1, v2, fp, k, q, *args)
-        return [m1 * q[Q_RT], m2 * q[Q_RT], d[0], d[1]]
+        return [m1 * q["rt"], m2 * q["rt"], d[0], d[1]]
     return rhs
 
 
 def _solve(model, k, duration, delta=lambda t: 0.0):
     z = lambda t: 0.025 + 0.01 * math.sin(2 * math.pi * 1.3 * t)   # noqa: E731  piston motion (m)
     u = lambda t: 0.5 * math.sin(2 * math.pi * t)                    # noqa: E731  both ports, A_v1 A_v2 < 0
-    v1, v2 = volumes(z(0.0), model.q)
+    v1, v2 = volumes(z(0.0), model.params)
     y0 = [2e5 * v1, 3e5 * v2, 0.0, 0.0]                              # estimates start from zero
     t = np.linspace(0.0, duration, int(duration * 1000) + 1)
     sol = solve_ivp(_coupled(model, z, u, k, delta), (0, duration), y0, method="LSODA", rtol=1e-10,
                     atol=1e-12, t_eval=t, max_step=1e-3)
-    vol = np.array([volumes(z(ti), model.q) for ti in t]).T
+    vol = np.array([volumes(z(ti), model.params) for ti in t]).T
     return t, sol.y[:2], sol.y[2:], sol.y[:2] / vol, sol.y[2:] / vol
 
 
@@ -76,14 +68,14 @@ def test_correction_term_is_eq34_at_random_states():
         bore = rng.uniform(0.008, 0.04)
         cyl = Cylinder(bore_m=bore, rod_m=rng.uniform(0.1, 0.6) * bore, stroke_m=rng.uniform(0.02, 0.2))
         plant = Plant(line_1=DeadVolume(rng.uniform(0, 10)), line_2=DeadVolume(rng.uniform(0, 10)), actuator=cyl)
-        q = ObserverModel.from_plant(plant).q
+        q = ObserverModel.from_plant(plant).params
         z, k = rng.uniform(0, cyl.stroke_m), rng.uniform(1e-9, 1e-5)
         p, ph = rng.uniform(1e5, 6e5, 2), rng.uniform(0, 8e5, 2)
         v1, v2 = volumes(z, q)
         f1, f2 = correction(ph[0], ph[1], v1, v2, actuator_force(p[0], p[1], q), q)
         lhs = k * ((ph[0] - p[0]) * v1 * f1 + (ph[1] - p[1]) * v2 * f2)
         pt = ph - p
-        rhs = -k * (pt[0] * q[Q_A1] - pt[1] * q[Q_A2]) ** 2 / (q[Q_A1] * q[Q_A2])
+        rhs = -k * (pt[0] * q["area_1"] - pt[1] * q["area_2"]) ** 2 / (q["area_1"] * q["area_2"])
         assert lhs == pytest.approx(rhs, rel=1e-9, abs=1e-12 * abs(k * pt @ pt))   # round-off only
 
 
@@ -113,7 +105,7 @@ def test_correction_drives_the_force_error_to_the_valley_with_the_valve_shut():
     # the force error decays at rate k |w|^2 / (A1 A2) and the component along the valley of eq 36
     # is kept -- the final error is the projection of the initial one onto w's normal.
     model = ObserverModel.from_plant(Plant(valve=ENFIELD_LH05, line_1=DeadVolume(2.0), line_2=DeadVolume(2.0)))
-    q, z = model.q, 0.02
+    q, z = model.params, 0.02
     v1, v2 = volumes(z, q)
     x = np.array([3e5 * v1, 2e5 * v2])
     fp = actuator_force(3e5, 2e5, q)
@@ -127,7 +119,7 @@ def test_correction_drives_the_force_error_to_the_valley_with_the_valve_shut():
         if k == 0.0:
             assert np.allclose(e, e0, rtol=1e-12)
         else:
-            w = np.array([q[Q_A1] / v1, -q[Q_A2] / v2])
+            w = np.array([q["area_1"] / v1, -q["area_2"] / v2])
             kept = e0 - w * (w @ e0) / (w @ w)
             # 2 s at a 5 Hz pole: exp(-2 pi 5 * 2) leaves nothing of the decaying part
             assert np.allclose(e, kept, rtol=1e-9, atol=1e-9 * np.abs(e0).max())
@@ -142,7 +134,7 @@ def test_bounded_force_error_keeps_the_estimate_bounded():
     peaks = []
     for eps in (1.0, 2.0):
         t, x, xh, p, ph = _solve(MODEL, k, 3.0, lambda t, e=eps: e * math.sin(2 * math.pi * 3 * t))
-        ft = actuator_force(ph[0], ph[1], MODEL.q) - actuator_force(p[0], p[1], MODEL.q)
+        ft = actuator_force(ph[0], ph[1], MODEL.params) - actuator_force(p[0], p[1], MODEL.params)
         late = t > 1.0
         assert np.max(np.abs(ft[late])) <= eps
         err = np.max(np.abs(ph - p), axis=0)

@@ -1,5 +1,6 @@
-"""Plant physics added for issue 13, each against a reference independent of the plant: steady
-frictional choked flow (isothermal analytic solution, Fanno), gas-mass conservation and adiabatic
+"""Plant physics added for issues 13 and 25, each against a reference independent of the plant:
+steady frictional choked flow (isothermal analytic solution and Fanno, with an isentropic
+entrance), a large step-opened valve at the automatic substep, gas-mass conservation and adiabatic
 filling for every polytropic r, the chamber energy equation's limits and wall-heat relaxation,
 stick-slip friction, spool dynamics and the preliminary line model (eqs 7-13)."""
 import math
@@ -11,6 +12,7 @@ from scipy.optimize import brentq
 from sensor.errors import SolverError
 from sensor.pneumatic.air import AIR
 from sensor.pneumatic.cylinder import Cylinder, FixedChambers
+from sensor.pneumatic.line_response import LineCase, discharge_test
 from sensor.pneumatic.lines import DeadVolume, Distributed, Preliminary, TwoVolume
 from sensor.pneumatic.plant import Plant
 from sensor.pneumatic.sensors import ideal_sensors
@@ -23,65 +25,59 @@ AREA = math.pi * BORE**2 / 4
 RESERVOIR = Valve("reservoir", (-1.0, 0.0, 1.0), (0.0, 0.0, 1e-6), (0.0, 0.0, 0.0))
 
 
-def _darcy_blasius(m):
-    return 0.316 * AIR.reynolds(m, BORE) ** -0.25
-
-
-def isothermal_choked_flow(p_in, length):
-    """Steady isothermal flow with Blasius friction from static inlet pressure p_in to a choked exit:
-    p1^2 - p2^2 = (m/A)^2 R T (f L / D + 2 ln(p1/p2)) with p2 = m sqrt(R T) / A (exit at Mach
-    1/sqrt(gamma)); returns the mass flow (kg/s)."""
-    rt = AIR.rt
-
-    def residual(m):
-        p2 = m * math.sqrt(rt) / AREA
-        return p_in**2 - p2**2 - (m / AREA) ** 2 * rt * (_darcy_blasius(m) * length / BORE + 2 * math.log(p_in / p2))
-    return brentq(residual, 1e-6, 0.999999 * p_in * AREA / math.sqrt(rt))
-
-
-def fanno_choked_flow(p0, length):
-    """Choked Fanno flow (adiabatic tube) from stagnation p0, T0 = T: f L*/D = fL(M_in)."""
-    g = AIR.gamma
-
-    def f_lstar(mach):
-        return (1 - mach**2) / (g * mach**2) + (g + 1) / (2 * g) * math.log(
-            (g + 1) * mach**2 / (2 + (g - 1) * mach**2))
-
-    def flow(mach):
-        return AREA * p0 * math.sqrt(g / AIR.rt) * mach * (1 + (g - 1) / 2 * mach**2) ** (-(g + 1) / (2 * (g - 1)))
-    mach = 0.3
-    for _ in range(30):   # friction factor depends weakly on the flow: fixed point
-        mach = brentq(lambda x: f_lstar(x) - _darcy_blasius(flow(mach)) * length / BORE, 1e-3, 0.999)
-    return flow(mach)
-
-
 def _reservoir_run(line):
     cp = Plant(supply_Pa=6e5, valve=RESERVOIR, line_1=line, line_2=line,
                actuator=FixedChambers(10.0, 10.0)).compile()
     return simulate(cp, lambda t, m: min(1.0, t / 0.2), 0.4, sensors=ideal_sensors())
 
 
-def test_line_chokes_at_the_isothermal_limit_and_matches_fanno():
-    # The issue's case: a 1 m, 4 mm line from 6 bar into the atmosphere (a 10 m^3 chamber).  The
-    # steady flow of the segmented line must converge to the analytic isothermal frictional flow with
-    # a choked exit from the same (static) inlet pressure: within 1 % at 40 segments (first-order
-    # upwind; 20 segments are 0.7 % off, 80 segments 0.2 %).  Fanno flow from 6 bar stagnation in an
-    # adiabatic tube is 9.65 g/s; the isothermal line may differ by the energy assumption, which
-    # the analytic pair puts at 3.5 % here: asserted within 5 %.  Before convective momentum the
-    # same line passed 13.5 g/s at an exit Mach of 1.96.
-    ds = _reservoir_run(Distributed(1.0, BORE, segments=40))
-    m = float(ds.chamber_mass_flow.sel(side=1)[-2])
-    p_in = float(ds.pressure_valve.sel(side=1)[-1])
-    assert m == pytest.approx(float(ds.valve_mass_flow.sel(side=1)[-2]), rel=1e-3)   # steady
-    assert m == pytest.approx(isothermal_choked_flow(p_in, 1.0), rel=0.01)
-    assert m == pytest.approx(fanno_choked_flow(6e5, 1.0), rel=0.05)
-    assert 0.7 < float(ds.line_max_mach.sel(side=1)[-2]) < 1 / math.sqrt(AIR.gamma) + 1e-9
+@pytest.mark.parametrize("supply_Pa", [2e5, 4e5, 7e5])
+def test_steady_discharge_matches_isothermal_and_fanno_flow(supply_Pa):
+    # The distributed line (20 segments) discharging into the atmosphere from a port node fed by a
+    # large valve, against the analytic flows from the port node's pressure as stagnation pressure
+    # (sensor.pneumatic.choked_flow, scipy root finding on the relations): the plant's line is
+    # isothermal with an isentropic entrance, so it must agree with isothermal frictional flow
+    # within 2 % (measured: 0.8 % at most) and choke where that does.  Against Fanno (adiabatic)
+    # it differs by the energy assumption, which the two analytic solutions put at 0.2-7.6 % here
+    # (short lines at high pressure furthest apart, 4.4 % at 1 m and 6 bar: 9.65 vs 9.23 g/s): it
+    # must be within 2 % beyond that analytic gap, and within 2 % outright where the gap is below
+    # 1 % (long lines).
+    for length in (0.25, 1.0, 3.0, 7.25):
+        d = discharge_test(LineCase(length, BORE, 4.5e-5, supply_Pa))
+        iso, fan = d["references"]["isothermal"], d["references"]["fanno"]
+        assert abs(iso["deviation_pct"]) < 2.0
+        assert d["choked"] is iso["choked"]
+        gap = 100 * abs(iso["mass_flow_kg_s"] / fan["mass_flow_kg_s"] - 1)
+        assert abs(fan["deviation_pct"]) < 2.0 + gap
+        if gap < 1.0:
+            assert abs(fan["deviation_pct"]) < 2.0
+        sonic = 1 / math.sqrt(AIR.gamma)   # isothermal exit choke
+        assert d["exit_mach"] == pytest.approx(sonic, rel=1e-6) if d["choked"] else d["exit_mach"] < sonic
+        assert d["max_mach"] < d["exit_mach"] + 1e-9      # element means stay below the exit face
+
+
+@pytest.mark.parametrize("segments,length,volume", [(20, 1.0, 10.0), (80, 1.0, 10.0), (20, 7.25, 4.5e-5),
+                                                    (80, 7.25, 4.5e-5), (20, 0.25, 4.5e-5)])
+def test_step_opened_valve_100_times_festo_runs_at_the_automatic_substep(segments, length, volume):
+    # The issue: at the former automatic substep (acoustic bound only) this stopped at 1 ms with
+    # "Mach 1.63" (20 segments) or "Mach 262" (80 segments).  The valve's fill time of the port
+    # node now bounds the substep too: the run completes, subsonic, and agrees with a 2 us run.
+    cmax = float(np.max(FESTO_MPYE.arrays()[1]))
+    big = Valve("100x festo", (-1.0, 0.0, 1.0), (0.0, 0.0, 100 * cmax), (100 * cmax, 0.0, 0.0), critical_ratio=0.3)
+    cp = Plant(valve=big, line_1=Distributed(length, BORE, segments=segments),
+               line_2=Distributed(length, BORE, segments=segments), actuator=FixedChambers(volume, volume)).compile()
+    auto = simulate(cp, constant_command(1.0), 0.05, sensors=ideal_sensors())
+    fine = simulate(cp, constant_command(1.0), 0.05, sensors=ideal_sensors(), substep_s=2e-6)
+    assert auto.attrs["substep_s"] <= 0.5 * cp.valve_fill_time_s() + 1e-15
+    assert float(auto.line_max_mach.max()) < 1.0
+    flow, ref = (float(d.chamber_mass_flow.sel(side=1)[-2]) for d in (auto, fine))
+    assert flow == pytest.approx(ref, rel=0.01, abs=1e-5)
 
 
 def test_line_without_convective_momentum_leaves_its_range_with_a_named_mach():
-    with pytest.raises(SolverError, match=r"side 1 line reached Mach 1\.\d+, beyond the distributed line's "
-                                          r"range \(subsonic flow up to Mach 1; its isothermal ends choke at "
-                                          r"Mach 0\.845\)"):
+    with pytest.raises(SolverError, match=r"side 1 line reached Mach 1\.\d+ in flow element \d+ of 20, beyond the "
+                                          r"distributed line's range \(subsonic flow up to Mach 1; its isothermal ends "
+                                          r"choke at Mach 0\.845\); cure: a lower supply pressure"):
         _reservoir_run(Distributed(1.0, BORE, segments=20, convective=False))
 
 

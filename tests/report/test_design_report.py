@@ -103,7 +103,7 @@ def test_files_are_listed_with_their_true_size_and_sha256(report):
 
 def test_page_is_self_contained_with_every_picture_readable(report):
     """Nothing but inline style and data: images; every anchor link lands on a section, every
-    other link downloads the SVG of the figure it sits under; the five pictures decode (PNG
+    other link downloads the SVG of the figure it sits under; the seven pictures decode (PNG
     not blank, SVG well-formed)."""
     _, _, rep = report
     tags = start_tags(rep.path.read_text())
@@ -113,7 +113,7 @@ def test_page_is_self_contained_with_every_picture_readable(report):
     hrefs = [a["href"] for t, a in tags if "href" in a and "download" not in a]
     assert hrefs and all(h.startswith("#") and h[1:] in ids for h in hrefs), hrefs
     srcs = [a["src"] for t, a in tags if t == "img"]
-    assert len(srcs) == 5
+    assert len(srcs) == 7
     downloads = {a["download"]: a["href"] for t, a in tags if "download" in a}
     assert sorted(downloads) == [f"sample-b-{n}.svg" for n in ("calibration", "hinge-stress", "intensity", "profile")]
     assert set(downloads.values()) <= set(srcs)
@@ -138,7 +138,7 @@ def test_page_opens_in_a_real_browser(report, tmp_path):
     ink = np.mean(img.min(axis=2) < 200)            # fraction of pixels that are not paper
     assert 0.02 < ink < 0.9, ink
     assert seen.console == []
-    assert len(seen.images) == 5
+    assert len(seen.images) == 7
     for complete, width, height, src in seen.images:
         assert complete and width > 0 and height > 0, src
     assert elapsed < 20, f"browser check took {elapsed:.1f} s"
@@ -157,7 +157,7 @@ def test_the_browser_check_sees_a_broken_and_a_blocked_image(report, tmp_path):
     page.write_text(spoiled)
     seen = open_in_browser(page, tmp_path / "browser")
     widths = [w for _, w, _, _ in seen.images]
-    assert len(widths) == 6 and widths[0] == 0 and widths[-1] == 0 and all(widths[1:5])
+    assert len(widths) == 8 and widths[0] == 0 and widths[-1] == 0 and all(widths[1:7])
     assert any("example.invalid" in line and "Content Security Policy" in line
                for line in seen.console), seen.console
 

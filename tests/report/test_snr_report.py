@@ -45,7 +45,48 @@ def test_pair_report_explains_the_ring_of_the_difference_image(pair_report):
     page = pair_report.read_text()
     shift = float(re.search(r"b is shifted by ([+-][0-9.]+) px along rows", page).group(1))
     assert 0.02 < shift < 0.06
-    assert "misregistration" in page and "not noise" in page
+    # the text follows the fit: sub-pixel, under the limits, and the ring stays out of the
+    # NEMA boxes (only the whole-image ROI reaches the edge band)
+    assert "this sub-pixel misregistration" in page and "over the" not in page
+    assert "No signal ROI but the whole image reaches the edge band" in page
+
+
+def test_pair_report_records_inputs_versions_intervals_and_orientation(pair_report, capsys):
+    import hashlib
+
+    assert main(["snr", str(A), str(B), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    page = pair_report.read_text()
+    for path in (A, B):
+        assert hashlib.sha256(path.read_bytes()).hexdigest() in page
+    assert result["a"]["sha256"] == hashlib.sha256(A.read_bytes()).hexdigest()
+    assert re.search(r"<td>20\d\d-\d\d-\d\dT\d\d:\d\d", page)  # acquisition date and time
+    for library in ("pydicom", "numpy", "scikit-image"):
+        assert f"<td>{library}</td>" in page
+    assert "<td>cadquery</td>" not in page
+    for s in result["summaries"]:
+        low, high = s["snr_ci95"]
+        assert low < s["snr"] < high
+        assert f'{low:.2f} to {high:.2f}' in page
+    cosines = re.search(r"<td>orientation</td><td>([^<]*)</td>", page).group(1)
+    assert re.fullmatch(r"(-?\d\.\d{4}, ){5}-?\d\.\d{4}", cosines), cosines
+    assert "white-space: pre-wrap" in page  # the command wraps
+    assert "No warnings: every check passed." in page
+
+
+def test_report_lists_every_warning_with_its_numbers(tmp_path, capsys):
+    from mri.io import load_image
+
+    a, b = load_image(A), load_image(B)
+    np.save(tmp_path / "a.npy", a.pixels)
+    np.save(tmp_path / "b.npy", np.roll(b.pixels, 3, axis=1))
+    page = tmp_path / "r.html"
+    assert main(["snr", str(tmp_path / "a.npy"), str(tmp_path / "b.npy"), "--report", str(page)]) == 0
+    err = capsys.readouterr().err
+    text = page.read_text()
+    assert "[misregistration]" in err and "<code>misregistration</code>" in text
+    assert re.search(r"shift_row_px = [0-9.]+; shift_col_px = -?[0-9.]+; limit_px = 0.3", text)
+    assert "is over the 0.3 px limit" in text  # the difference note follows the fit
 
 
 def test_pair_report_is_self_contained(pair_report):

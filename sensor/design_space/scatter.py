@@ -1,0 +1,43 @@
+"""Bodies as cut: a design's hinges drawn from a scatter model and solved together (the sweep's
+Monte Carlo, the tolerance report and the robust design share it; DESIGN section 16).
+
+A draw's hinge is its drawn thickness plus ``offset_mm`` plus ``sd_mm`` times a standard
+normal deviate. A draw with a used hinge under ``min_feature_mm`` is a part that could not be
+made: it is not solved, and counts against the yield.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from geometry.params import Design
+from geometry.topology import build_beam_model
+from sensor.mechanics.solver import SolverOptions, solve_batch
+
+
+@dataclass(frozen=True, eq=False)
+class AsCut:
+    """Draws of one design: ``thickness_mm`` (draws, 12), ``makeable`` (draws,) mask, and for
+    the makeable draws in order their designs, beam models and solve results (None where the
+    solve failed)."""
+
+    thickness_mm: np.ndarray
+    makeable: np.ndarray
+    designs: list
+    models: list
+    results: list
+
+
+def as_cut(design: Design, z: np.ndarray, sd_mm: float, offset_mm: float = 0.0, travel_mm: float = 1.0,
+           options: SolverOptions = SolverOptions()) -> AsCut:
+    """Solve ``design`` with every hinge drawn as drawn + offset_mm + sd_mm z (z: draws x 12
+    standard normal deviates) to the output travel."""
+    draws = np.asarray(design.hinge_thickness_mm) + offset_mm + sd_mm * np.asarray(z)
+    n = len(design.used_hinges)
+    makeable = draws[:, :n].min(axis=1) >= design.min_feature_mm
+    designs = [design.replace(hinge_thickness_mm=tuple(float(v) for v in t)) for t in draws[makeable]]
+    models = [build_beam_model(d) for d in designs]
+    results, _ = solve_batch(models, target_output_mm=travel_mm, options=options) if models else ([], [])
+    return AsCut(draws, makeable, designs, models, results)

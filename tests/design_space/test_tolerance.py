@@ -1,0 +1,69 @@
+"""The tolerance report and the robust design against independent estimates: the range
+sensitivities against a regression over the Monte Carlo draws, the yield against its exact
+value, the zero-scatter limit, and the robust design's chance constraints on fresh draws."""
+
+import numpy as np
+import pytest
+from scipy.stats import norm
+
+from geometry.params import Design
+from geometry.process import WATER_JET, Process
+from sensor.design_space.optimise import DesignProblem, optimise
+from sensor.design_space.robust import BAND, STRESS_PROBABILITY, robust
+from sensor.design_space.scatter import as_cut
+from sensor.design_space.tolerance import draws_z, part_statistics, range_sensitivity, tolerance
+
+#: The 5 N optimum of the current model (any body of 0.3-0.5 mm hinges serves).
+DESIGN = Design(phi1_deg=28.36, phi2_deg=12.97,
+                hinge_thickness_mm=(0.3, 0.3, 0.3, 0.5069, 0.5069, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3))
+
+
+def test_zero_scatter_gives_the_nominal_part():
+    t = tolerance(DESIGN, Process(offset_mm=0.0, sd_mm=1e-9), draws=20)
+    from sensor.design_space.optimise import solve_designs
+    _, r = solve_designs([DESIGN], 1.0)[0]
+    assert t.range_N_p5 == pytest.approx(r.input_force_N, rel=1e-6)
+    assert t.range_N_p95 == pytest.approx(r.input_force_N, rel=1e-6)
+    assert t.yield_fraction == 1.0
+
+
+def test_range_sensitivity_matches_a_regression_over_the_draws():
+    """Small scatter (SD 0.005 mm, linear regime): the least-squares slope of range on each
+    pair's mean deviation over 400 draws equals the central-difference sensitivity within
+    10 % of the largest sensitivity (regression noise of 400 draws)."""
+    sd = 0.005
+    z = draws_z(400, 3)
+    cut = as_cut(DESIGN, z, sd)
+    rng = part_statistics(cut)["range_N"]
+    sens = range_sensitivity(DESIGN)
+    pairs = [(int(a), int(b)) for a, b in (k.split("-") for k in sens)]
+    X = np.column_stack([sd * (z[:, a - 1] + z[:, b - 1]) / 2 for a, b in pairs] + [np.ones(len(z))])
+    slope = np.linalg.lstsq(X, rng, rcond=None)[0][:-1] * 0.01   # N per 0.01 mm of the pair (mean)
+    big = max(abs(v) for v in sens.values())
+    for (k, v), s in zip(sens.items(), slope):
+        assert s == pytest.approx(v, abs=0.1 * big), (k, s, v)
+
+
+def test_yield_matches_its_exact_value():
+    """P(every used hinge >= min_feature) = prod Phi((t + offset - f) / SD): the Monte Carlo
+    yield of 2000 draws within 3 binomial SDs."""
+    t = tolerance(DESIGN, WATER_JET, draws=2000, seed=5)
+    th = np.array(DESIGN.used_thickness_mm)
+    exact = float(np.prod(norm.cdf((th + WATER_JET.offset_mm - DESIGN.min_feature_mm) / WATER_JET.sd_mm)))
+    assert t.yield_fraction == pytest.approx(exact, abs=3 * np.sqrt(exact * (1 - exact) / 2000))
+
+
+def test_robust_design_keeps_its_chance_constraints_on_fresh_draws():
+    """The robust 5 N design, re-cut with 1000 draws of another seed: P(stress > allowable)
+    at most 5 % + 2 binomial SDs (1.4 %), the range band inside +-10 % (+1 % for the
+    percentiles' sampling), yield >= 0.9; and its median H is no lower than the nominal
+    design's (robustness has a price, never a gain)."""
+    p = DesignProblem(5.0)
+    nominal = optimise(p).design
+    rob = robust(p, nominal)
+    assert rob.met, rob.why
+    fresh = tolerance(rob.design, draws=1000, seed=99)
+    assert fresh.p_over_stress <= STRESS_PROBABILITY + 0.014
+    assert fresh.range_N_p5 >= (1 - BAND - 0.01) * 5 and fresh.range_N_p95 <= (1 + BAND + 0.01) * 5
+    assert fresh.yield_fraction >= 0.9
+    assert fresh.hysteresis_p50 >= tolerance(nominal, draws=1000, seed=99).hysteresis_p50
