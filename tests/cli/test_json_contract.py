@@ -41,6 +41,7 @@ CASES = {
     "line": (["--length", "2", "--bore", "0.004", "--volume", "4.5e-5", "--pressure", "5e5", "--points", "20",
               "--model", "dead-volume", "--out", "{out}"], True),
     "loop": (["--duration", "2", "--out", "{out}"], True),
+    "artefact": (["--preset", "sample-b", "--out", "{out}"], True),
 }
 #: Commands whose text answer is compared with the JSON here (each runs twice).
 TEXT = ("sweep", "solve", "design")
