@@ -69,7 +69,7 @@ def kerf_path(design: Design, face: cq.Face, kerf_mm: float) -> cq.Face:
         if part.kind != "hinge":
             continue
         neck = hinge_neck_mm(cut, part)
-        if neck < design.min_feature_mm or abs(neck - part.width) > NECK_TOL_MM:
+        if neck < design.min_feature_mm - NECK_TOL_MM or abs(neck - part.width) > NECK_TOL_MM:
             raise GeometryError(
                 f"kerf = {kerf_mm:g} mm: hinge {part.hinge} would be cut {neck:.3f} mm thick "
                 f"instead of {part.width:g} mm (min_feature_mm = {design.min_feature_mm:g}): the "

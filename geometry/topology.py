@@ -153,6 +153,7 @@ def _fillet_sides(t_mm: float, radius_mm: float, shoulder_mm: float, gamma_deg: 
     station f where it leaves the face to the station n where it meets the neck.
     """
     g = math.radians(gamma_deg)
+    shoulder_mm = max(shoulder_mm, 0.0)  # a face narrower than the neck leaves no re-entrant corner
     sides = []
     for theta, corner in ((math.pi / 2 - g, t_mm / 2 * math.tan(g)), (math.pi / 2 + g, -t_mm / 2 * math.tan(g))):
         if radius_mm <= 0:

@@ -69,7 +69,7 @@ def _numbers(flag, values):
 
 #: command -> (bad argument groups, arguments that put its output in OUT)
 COMMANDS = {
-    "export": (_design_cases() + _numbers("--kerf", BAD_NUMBERS + ["0", "6"]), ["--dxf", "--out", "OUT"]),
+    "export": (_design_cases() + _numbers("--kerf", BAD_NUMBERS + ["6"]), ["--dxf", "--out", "OUT"]),
     "check": (_design_cases(), []),
     "draw": (_design_cases() + _numbers("--dpi", BAD_NUMBERS + ["0", "5000"]), ["--out", "OUT"]),
     "render": (_design_cases() + _numbers("--target-output", BAD_NUMBERS + ["0", "31"])

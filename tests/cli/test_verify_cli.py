@@ -1,19 +1,30 @@
 """`dacm verify` from the command line: JSON keys, the figure, bad input."""
 
 import json
+import math
 
 import pytest
 
+from geometry.params import MATERIALS, preset, save_design
 from sensor.cli import main
+from tests.mechanics.make_continuum_table import BASIS_5N, DESIGN_5N, PAIRS, body
 
 
 def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
-    assert main(["verify", "--preset", "basis", "--mesh", "coarse", "--json", "--out", str(tmp_path)]) == 0
+    """The drawing (--kerf 0), where today's beam model (sharp roots) applies."""
+    assert main(["verify", "--preset", "basis", "--mesh", "coarse", "--kerf", "0", "--json",
+                 "--out", str(tmp_path)]) == 0
     out = json.loads(capsys.readouterr().out)
+    assert (out["kerf_mm"], out["profile"]) == (0.0, "as drawn (kerf 0: sharp hinge roots)")
     for side in ("fe", "beam"):
-        for key in ("amplification", "k_out_N_per_mm", "strain_energy_mJ", "hinge_stress_MPa"):
+        for key in ("amplification", "k_out_N_per_mm", "strain_energy_mJ", "hinge_stress_MPa",
+                    "hinge_peak_stress_MPa"):
             assert key in out[side], (side, key)
         assert sorted(out[side]["hinge_stress_MPa"], key=int) == [str(h) for h in range(1, 9)]
+    assert sorted(out["fe"]["hinge_peak_station_mm"], key=int) == [str(h) for h in range(1, 9)]
+    peak = out["convergence"]["hinge_peak_stress_MPa"]
+    assert sorted(peak, key=int) == [str(h) for h in range(1, 9)]
+    assert peak["1"]["values"][-1] == out["fe"]["hinge_peak_stress_MPa"]["1"]
     for key in ("amplification", "k_out_N_per_mm", "strain_energy_mJ"):
         assert out["errors_pct"][key] == pytest.approx(100 * (out["beam"][key] / out["fe"][key] - 1))
         c = out["convergence"][key]
@@ -27,9 +38,61 @@ def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
     (["--mesh", "medium"], "--mesh = 'medium'"),
     (["--target-output", "0"], "--target-output = 0.0"),
     (["--kerf", "-1"], "--kerf = -1.0"),
+    (["--kerf", "nan"], "--kerf = nan"),
     (["--preset", "basis", "--phi1", "20"], "--phi1 cannot be combined with --preset"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, fragment, capsys):
     assert main(["verify"] + argv) == 2
     err = capsys.readouterr().err
     assert fragment in err and len(err.strip().splitlines()) == 1
+
+
+#: Bodies ``dacm design`` can output (thin, thick, unequal hinges; basis and proposed; both
+#: materials): its 5 N DACM (hinges 0.25-0.83 mm) and basis body (0.37-1.24 mm, the body
+#: whose verify stopped with a traceback), a hinge at the 0.25 mm minimum feature (sample A
+#: as cut), a thick-hinge basis (t / L = 0.69) and an ABS body at the sweep's corner.
+DESIGN_OUTPUTS = {
+    "design-5N": body(*DESIGN_5N, "design-5N"),
+    "basis-5N": body(*BASIS_5N, "basis-5N"),
+    "sample-a-as-cut": preset("sample-a-as-cut"),
+    "thick": body(22.0, None, (1.1,) * 8 + (0.5,) * 4, "thick", hinge_length_mm=1.6),
+    "abs": body(31.0, 8.0, (0.3,) * 12, "abs", material=MATERIALS["abs"]),
+}
+
+
+@pytest.mark.parametrize("name", sorted(DESIGN_OUTPUTS))
+def test_verify_works_on_design_outputs_as_cut(name, tmp_path, capsys):
+    """``dacm verify --config X.toml --mesh coarse`` (1.5 to 3 elements across each hinge)
+    on each body: the part as cut with the design's 0.8 mm kerf by default, and said so;
+    every hinge gets a neck stress and a peak at least as large (exact on a linear field:
+    the peak is the maximum over the corners of the triangles holding the neck's points);
+    on mirror-symmetric bodies mirror-image hinges agree within 3 % (the mesh is not
+    mirror-symmetric)."""
+    d = DESIGN_OUTPUTS[name]
+    save_design(d, tmp_path / "d.toml")
+    argv = ["verify", "--config", str(tmp_path / "d.toml"), "--mesh", "coarse", "--no-plots"]
+    assert main(argv + ["--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert (out["kerf_mm"], out["profile"]) == (0.8, "as cut, kerf 0.8 mm")
+    hinges = range(1, 9) if d.is_basis else range(1, 13)
+    neck, peak = out["fe"]["hinge_stress_MPa"], out["fe"]["hinge_peak_stress_MPa"]
+    assert sorted(neck, key=int) == sorted(peak, key=int) == [str(h) for h in hinges]
+    for h in neck:
+        assert math.isfinite(neck[h]) and 0 < neck[h] <= peak[h] * (1 + 1e-9), h
+    pairs = [(a, b) for a, b in PAIRS if str(a) in neck]
+    if all(d.hinge_thickness_mm[a - 1] == d.hinge_thickness_mm[b - 1] for a, b in pairs):
+        for a, b in pairs:
+            assert neck[str(a)] == pytest.approx(neck[str(b)], rel=0.03), (a, b)
+            assert peak[str(a)] == pytest.approx(peak[str(b)], rel=0.03), (a, b)
+    assert out["convergence"]["k_out_N_per_mm"]["error_pct"] < 5.0
+
+
+def test_verify_text_says_the_part_is_as_cut(tmp_path, capsys):
+    """The issue's command on ``dacm design``'s 5 N basis body, which used to stop with
+    a traceback: the header names the profile solved, each hinge prints its peak."""
+    save_design(DESIGN_OUTPUTS["basis-5N"], tmp_path / "basis.toml")
+    assert main(["verify", "--config", str(tmp_path / "basis.toml"), "--mesh", "coarse",
+                 "--no-plots"]) == 0
+    text = capsys.readouterr().out
+    assert "basis-5N as cut, kerf 0.8 mm: continuum FE" in text
+    assert sum(line.strip().startswith("hinge") and "peak:" in line for line in text.splitlines()) == 8

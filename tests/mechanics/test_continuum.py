@@ -6,16 +6,21 @@ import math
 import numpy as np
 import pytest
 
+from types import SimpleNamespace
+
 from geometry.params import Material, preset
 from sensor.errors import SensorInputError
 from sensor.mechanics.continuum import (
     REFINEMENT_RATIO,
+    _corner_gradients,
+    _gradients_at,
     cut_profile_loops,
     mesh_profile,
+    neck_points,
     richardson,
     verify,
 )
-from tests.mechanics.test_continuum_table import TABLE
+from tests.mechanics.test_continuum_table import DESIGNS, TABLE
 
 #: Elements across each hinge of the quick solves (the table's finest mesh has 12).
 QUICK = 3.0
@@ -23,7 +28,8 @@ QUICK = 3.0
 
 @pytest.fixture(scope="module")
 def sample_b():
-    return verify(preset("sample-b"), mesh=QUICK)
+    """Sample B as drawn (kerf 0, E 2.3 GPa), as the stored reference's ``cases``."""
+    return verify(DESIGNS["sample-b"], mesh=QUICK)
 
 
 def test_richardson_recovers_a_known_limit():
@@ -38,7 +44,7 @@ def test_richardson_recovers_a_known_limit():
 def test_mesh_holds_the_profile_area_and_refines_the_hinges():
     """The triangles tile the drawn profile (area from the CAD outline and holes) to
     round-off, and the hinges get about the requested elements across."""
-    d = preset("sample-b")
+    d = preset("sample-b").replace(kerf_mm=0.0)
     pts, tri = mesh_profile(d, QUICK)
     a = pts[tri]
     u, v = a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]
@@ -98,8 +104,7 @@ def test_clamping_the_whole_base_plate_barely_moves_the_answer(sample_b):
     """Clamping the whole base plate instead of its bottom edge stiffens sample B by 0.9 %
     at the default mesh (the basis by 2.5 %): it also clamps the base hinges' roots, which
     reach 2 t into the plate. Stiffer, and by less than 1.5 %."""
-    d = preset("sample-b")
-    plate = verify(d, mesh=QUICK, clamp="base plate")
+    plate = verify(DESIGNS["sample-b"], mesh=QUICK, clamp="base plate")
     assert 1.0 < plate.k_out_N_per_mm / sample_b.k_out_N_per_mm < 1.015
 
 
@@ -120,3 +125,66 @@ def test_richardson_outside_the_asymptotic_range_keeps_the_finest_value():
     c = richardson([1.00, 0.99, 0.98])
     assert math.isnan(c.order) and c.extrapolated == 0.98
     assert c.error_pct == pytest.approx(100 * 0.01 / (REFINEMENT_RATIO - 1) / 0.98)
+
+
+def test_gradients_at_any_point_are_exact_for_quadratic_fields():
+    """The gradient of a quadratic element is linear: interpolating its corner values
+    (what the neck stress is sampled from) reproduces the gradient of any quadratic
+    displacement field exactly, here u = (x^2 - x y, 3 y^2 + x) on a refined square."""
+    from skfem import Basis, ElementTriP2, ElementVector, MeshTri
+
+    basis = Basis(MeshTri().refined(3), ElementVector(ElementTriP2()))
+    u = basis.project(lambda x: np.array([x[0] ** 2 - x[0] * x[1], 3 * x[1] ** 2 + x[0]]))
+    pb = SimpleNamespace(basis=basis)
+    xy = np.random.default_rng(1).uniform(0.01, 0.99, (50, 2))
+    G = _gradients_at(pb, _corner_gradients(pb, u), xy)[..., 0]
+    x, y = xy.T
+    exact = np.array([[2 * x - y, -x], [np.ones_like(x), 6 * y]])
+    assert np.abs(G - exact).max() < 1e-9
+
+
+def test_neck_stations_follow_the_beam_rule_and_stay_on_the_faces():
+    """Stations from t to L - t (one thickness inside either root), or the middle station
+    when the neck is shorter than 2 t (thick hinges, e.g. dacm design's 5 N basis body,
+    1.24 mm hinges on a 2.82 mm neck at 1.5 elements across: no mesh corner lies there)."""
+    d = preset("basis").replace(hinge_thickness_mm=(0.5,) * 3 + (1.6,) + (0.5,) * 8)
+    pts = neck_points(d)
+    from geometry.layout import make_layout, make_parts
+
+    for p in make_parts(make_layout(d)):
+        if p.kind != "hinge":
+            continue
+        a, b = p.axis
+        L = np.linalg.norm(b - a)
+        u = (b - a) / L
+        s = (pts[p.hinge] - a) @ u
+        n = np.abs((pts[p.hinge] - a) @ np.array([-u[1], u[0]]))
+        assert n == pytest.approx(p.width / 2, rel=1e-5)
+        if L >= 2 * p.width:
+            assert (s.min(), s.max()) == pytest.approx((p.width, L - p.width))
+        else:
+            assert s == pytest.approx(L / 2)
+
+
+def test_default_profile_is_the_part_as_cut():
+    """Without ``kerf_mm`` the FE solves the design's own kerf (0.8 mm): the same numbers as
+    asking for it, and stiffer than the drawing (sharp roots) by the fillets (about 25 %
+    on sample B, issue 23); kerf 0 is the drawing."""
+    d = preset("sample-b")
+    cut, same, drawn = (verify(d, mesh=2.0, kerf_mm=k) for k in (None, 0.8, 0.0))
+    assert (cut.kerf_mm, drawn.kerf_mm) == (0.8, 0.0)
+    assert cut.k_out_N_per_mm == same.k_out_N_per_mm
+    assert 1.15 < cut.k_out_N_per_mm / drawn.k_out_N_per_mm < 1.4
+
+
+def test_peak_is_at_the_fillet_and_above_the_neck_stress():
+    """With fillets (r = 0.4 mm) each hinge's peak sits in the neck's end, between the
+    drawn root and one fillet radius plus a thickness into the neck, and it is at least
+    the neck's stress (the neck's sample points lie in triangles of the peak's zone, and
+    von Mises of a linear field is convex: its maximum is at a corner)."""
+    d = preset("sample-b")
+    r = verify(d, mesh=QUICK)
+    for h, peak in r.hinge_stress_MPa.items():
+        assert peak >= r.hinge_neck_stress_MPa[h] * (1 - 1e-9), h
+        t = d.hinge_thickness_mm[h - 1]
+        assert -0.05 < r.hinge_peak_station_mm[h] < 0.4 + t, h

@@ -1,44 +1,59 @@
-"""The beam model against the stored continuum FE reference (DESIGN section 14).
+"""The beam model against the stored continuum FE reference (DESIGN sections 14 and 16).
 
-tests/mechanics/data/continuum_table.json holds the continuum FE of the drawn profile of six
-presets and twelve sweep cells (both hinge sets, phi1 from 8 to 31 deg, cells next to the
-toggle), each Richardson-extrapolated from meshes with 6, 8.5 and 12 quadratic elements
-across each hinge (estimated mesh error under 0.5 %), plus nonlinear solves at 1 mm output
-for six of them. tests/mechanics/make_continuum_table.py regenerates it (about 30 min).
+tests/mechanics/data/continuum_table.json holds two references; tests/mechanics/
+make_continuum_table.py regenerates them (resumably: runs are slow).
+
+``cases``: the drawn profile (kerf 0, sharp roots) of six presets and twelve sweep cells
+(both hinge sets, phi1 from 8 to 31 deg, cells next to the toggle), each
+Richardson-extrapolated from meshes with 6, 8.5 and 12 quadratic elements across each
+hinge (estimated mesh error under 0.5 %), plus nonlinear solves at 1 mm output for six of
+them (about 30 min).
+
+``entries``: the part as cut (root fillets r = kerf / 2; kerf 0, 0.4, 0.8 and 1.2 mm) of the
+thesis specimens, ``dacm design`` outputs, thick hinges (t / L up to 0.69), the basis family
+(hinges 1-8 from 0.3 to 1.25 mm) and ``dacm design``-like bodies of both materials, linear
+from 3, 4.24 and 6 elements across each hinge (6, 8.5 and 12 where those do not converge
+within 1 %; Richardson) and nonlinear at 1 mm output on the 3-across mesh; a third of them are held out of any fit by a fixed rule.
 
 Targets of the issue: k_out within 3 %, A within 1.5 % of the converged continuum, hinge
-stress within 15 %. The beam model's one calibrated parameter, the root depth, is the
-least-squares fit of k_out to this table (the test refits it).
+stress within 15 %. The root rule's constants are fitted to the entries that are not held
+out (tests/mechanics/test_root_rule.py refits them).
 
 Known disagreements, kept as strict expected failures with their numbers: next to the toggle
 (phi2 = 4-6 deg) amplification is so sensitive to where the middle links' effective pivots
 sit (at phi2 = 6 deg a pivot 0.02 mm higher changes A by about 2 %) that the simple root
 model misses the 1.5 % target on two 03-03 cells in the linear limit (A -1.65 % at 12/4,
 +1.81 % at 28/6) and on both toggle cells at 1 mm (05-03 22/6: k +4.4 %, A -2.6 %; 03-03
-28/6: A +2.8 %); every other case meets both targets.
+28/6: A +2.8 %); every other drawn case meets both targets.
+
+The cut-part entries hold the beam model of the part as cut (root fillets) to the same
+targets, linear and at 1 mm (the nonlinear FE on its 3-across mesh, less the mesh error its
+linear solve shows there); their tolerances are the issue's and are not loosened.
 """
 
 import json
 from pathlib import Path
 
-import numpy as np
 import pytest
-from scipy.optimize import minimize_scalar
 
-from geometry.topology import ROOT_DEPTH_PER_THICKNESS, build_beam_model
+from geometry.params import design_from_dict
+from geometry.topology import build_beam_model
 from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
 from sensor.mechanics.solver import solve
 from sensor.mechanics.stress import hinge_stresses
-from tests.mechanics.make_continuum_table import NONLINEAR, cases
+from tests.mechanics.make_continuum_table import CONVERGED_PCT, NONLINEAR, cases, entries
 
-TABLE = json.loads((Path(__file__).with_name("data") / "continuum_table.json").read_text())["cases"]
+_DATA = json.loads((Path(__file__).with_name("data") / "continuum_table.json").read_text())
+TABLE = _DATA["cases"]
 DESIGNS = cases()
+#: The cut-part entries computed so far (the script fills the table entry by entry).
+ENTRIES = _DATA.get("entries", {})
 #: The issue's targets (percent).
 K_TOL_PCT, A_TOL_PCT, STRESS_TOL_PCT = 3.0, 1.5, 15.0
 
 
-def beam_linear(name, root_depth=ROOT_DEPTH_PER_THICKNESS):
-    model = build_beam_model(DESIGNS[name], root_depth_per_thickness=root_depth)
+def beam_linear(name):
+    model = build_beam_model(DESIGNS[name])
     return model, solve(model, target_output_mm=LINEAR_LIMIT_FRACTION)
 
 
@@ -99,12 +114,50 @@ def test_hinge_stress_matches_continuum(name):
             assert beam[h] == pytest.approx(v, rel=STRESS_TOL_PCT / 100), f"hinge {h}"
 
 
-def test_root_depth_is_the_least_squares_fit_to_the_table():
-    """The one calibrated parameter: refit to the table's linear k_out, it lands within 0.01
-    of the stored constant."""
-    def cost(k):
-        err = [beam_linear(n, k)[1].k_out_N_per_mm / fe(n, "k_out_N_per_mm") - 1 for n in DESIGNS]
-        return float(np.sum(np.square(err)))
+# --- the part as cut (entries) ---------------------------------------------------------
 
-    best = minimize_scalar(cost, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-3}).x
-    assert best == pytest.approx(ROOT_DEPTH_PER_THICKNESS, abs=0.01)
+
+def test_entries_are_the_scripts_bodies_with_the_held_out_rule_and_converged():
+    """Every stored entry is a body of the script (the same design, kerf included), held out
+    by the script's fixed rule (every third of its family), and mesh-converged as stated
+    (Richardson error of the finest mesh under 1 % on k_out and A)."""
+    bodies = entries()
+    assert ENTRIES, "no cut-part entries yet: run tests/mechanics/make_continuum_table.py"
+    for name, row in ENTRIES.items():
+        family, held_out, design = bodies[name]
+        assert design_from_dict(row["design"]) == design and row["kerf_mm"] == design.kerf_mm
+        assert (row["family"], row["held_out"]) == (family, held_out)
+        assert row["converged"]["ok"], (name, row["converged"]["error_pct"])
+        for q in ("k_out_N_per_mm", "amplification"):
+            assert row["linear"][q]["error_pct"] < CONVERGED_PCT, (name, q)
+    held = sum(h for _, h, _ in bodies.values())
+    assert 0.25 < held / len(bodies) < 0.4
+
+
+def _beam_vs(name, nonlinear):
+    row = ENTRIES[name]
+    model = build_beam_model(design_from_dict(row["design"]))
+    if nonlinear:
+        # the 3-across nonlinear solve, less the mesh error its linear solve shows there
+        nl, same = row["nonlinear_1mm"], row["nonlinear_1mm"]["linear_same_mesh"]
+        ref = {q: nl[q] * row["linear"][q]["extrapolated"] / same[q]
+               for q in ("k_out_N_per_mm", "amplification")}
+        r = solve(model, target_output_mm=1.0)
+    else:
+        ref = {q: row["linear"][q]["extrapolated"] for q in ("k_out_N_per_mm", "amplification")}
+        r = solve(model, target_output_mm=LINEAR_LIMIT_FRACTION)
+    k_err = 100 * (r.k_out_N_per_mm / ref["k_out_N_per_mm"] - 1)
+    a_err = 100 * (r.amplification / ref["amplification"] - 1)
+    assert abs(k_err) < K_TOL_PCT and abs(a_err) < A_TOL_PCT, f"k_out {k_err:+.2f} %, A {a_err:+.2f} %"
+
+
+@pytest.mark.parametrize("name", sorted(ENTRIES))
+def test_beam_model_matches_the_cut_part_in_the_linear_limit(name):
+    """The beam model of the part as cut against the entry (see the module docstring)."""
+    _beam_vs(name, nonlinear=False)
+
+
+@pytest.mark.parametrize("name", sorted(ENTRIES))
+def test_beam_model_matches_the_cut_part_at_1mm(name):
+    """The beam model of the part as cut against the entry (see the module docstring)."""
+    _beam_vs(name, nonlinear=True)
