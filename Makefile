@@ -1,6 +1,6 @@
 # Two entry points for a fresh clone: `make run` (the main job: the default sweep with its
 # equal-range answers and Figure 49 contour plots, then the 5 N design, into ./dacm-out) and
-# `make test`.
+# `make test`; `make docs` regenerates the README's images in docs/ from the commands.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -19,7 +19,7 @@ $(KERNELS): $(BIN)/dacm sensor/mechanics/_solver_kernel.py
 	$(BIN)/dacm solve --preset sample-b > /dev/null
 	touch $@
 
-.PHONY: setup run test bench
+.PHONY: setup run test bench docs
 setup: $(BIN)/dacm $(KERNELS)
 
 run: setup
@@ -29,6 +29,9 @@ run: setup
 test: setup
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -n 2 --dist loadfile; status=$$?; \
 	if [ $$status -eq 5 ]; then echo "pytest collected no tests: failing"; exit 1; fi; exit $$status
+
+docs: setup
+	PATH=$(CURDIR)/$(BIN):$$PATH MPLBACKEND=Agg $(BIN)/python scripts/make_docs.py --dacm $(BIN)/dacm
 
 # the peers: OpenSeesPy in the project's venv (its Linux wheel needs the system's libblas3
 # and liblapack3), hazen in a venv of its own (it pins numpy < 2.4)

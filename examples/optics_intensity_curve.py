@@ -45,7 +45,7 @@ def main() -> int:
     args = parser.parse_args()
     with busy("optics_intensity_curve", args.quiet) as step:
         fig = _figure(args, step)
-    save_figure(fig, args.out, dpi=120)
+    save_figure(fig, args.out)
     print(f"wrote {args.out}")
     return 0
 

@@ -213,7 +213,7 @@ def plot_grid(runs, out_dir: Path) -> None:
     axes[0, 2].legend(fontsize=7)
     fig.tight_layout()
     target = out_dir / "chapter3_fixed_volume.png"
-    save_figure(fig, target, dpi=100)
+    save_figure(fig, target)
     print(f"\nwrote {target}")
 
 

@@ -26,7 +26,7 @@ def main() -> None:
         res = observer_study(progress=progress)
     print(observer_tables(res))
     for name, make in (("loop-observer-phase.png", observer_phase_figure), ("loop-observer-smc.png", observer_smc_figure)):
-        print("wrote", save_figure(make(res), out / name, dpi=90))
+        print("wrote", save_figure(make(res), out / name))
 
 
 if __name__ == "__main__":

@@ -33,8 +33,8 @@ def main() -> None:
     with counting("chapter V", "--quiet" in sys.argv) as progress:
         res = controller_study(keep_runs=keep, progress=progress)
     print(controller_tables(res))
-    print("wrote", save_figure(controller_mse_figure(res), out / "loop-controllers-mse.png", dpi=90))
-    print("wrote", save_figure(controller_virtual_input_figure(res), out / "loop-controllers-virtual-input.png", dpi=90))
+    print("wrote", save_figure(controller_mse_figure(res), out / "loop-controllers-mse.png"))
+    print("wrote", save_figure(controller_virtual_input_figure(res), out / "loop-controllers-virtual-input.png"))
 
 
 if __name__ == "__main__":

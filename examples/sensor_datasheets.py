@@ -36,7 +36,7 @@ def main() -> int:
     with busy("sensor_datasheets", args.quiet) as step:
         fig = _datasheets(step)
     fig.tight_layout()
-    save_figure(fig, args.out, dpi=80)
+    save_figure(fig, args.out)
     print(f"wrote {args.out}")
     return 0
 

@@ -200,17 +200,22 @@ def check_complete(path: Path, target: Path | None = None) -> None:
                           f"the file stopped at {path.stat().st_size} bytes, before its end")
 
 
-def save_figure(fig, path: str | os.PathLike, dpi: int = 110, close: bool = True,
+def save_figure(fig, path: str | os.PathLike, dpi: float | None = None, close: bool = True,
                 **savefig_kwargs) -> Path:
-    """Write a matplotlib figure atomically (format from the suffix).
+    """Write a matplotlib figure atomically (format from the suffix; ``dpi`` by default the
+    tool's style, :mod:`geometry.style`; an SVG carries no date, so it depends only on the
+    figure).
 
     Figures made with ``matplotlib.figure.Figure`` need no closing; a figure that pyplot
     manages is closed after writing unless ``close`` is False.
     """
     target = Path(path)
+    kind = target.suffix.lstrip(".") or "png"
+    if kind == "svg":
+        savefig_kwargs.setdefault("metadata", {"Date": None})
     try:
         with atomic_path(target) as tmp:
-            fig.savefig(tmp, format=target.suffix.lstrip(".") or "png", dpi=dpi, **savefig_kwargs)
+            fig.savefig(tmp, format=kind, dpi=dpi, **savefig_kwargs)
     finally:
         if close and getattr(fig.canvas, "manager", None) is not None:
             import matplotlib.pyplot as plt

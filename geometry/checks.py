@@ -27,9 +27,14 @@ RULES = ("angle_limits", "min_feature", "hinge_fits", "footprint", "no_crossing"
 
 @dataclass(frozen=True)
 class RuleResult:
+    """One rule's verdict; ``margin`` is how far the design is inside the rule's limit
+    (negative: outside), in ``unit`` (NaN when the rule has no single number)."""
+
     rule: str
     ok: bool
     message: str
+    margin: float = math.nan
+    unit: str = ""
 
 
 @dataclass(frozen=True)
@@ -195,17 +200,19 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
     pairs (I, J) with their distances and overlap mask."""
     res: list[RuleResult] = []
 
-    def add(rule, ok, msg):
-        res.append(RuleResult(rule, bool(ok), msg))
+    def add(rule, ok, msg, margin=math.nan, unit="mm"):
+        res.append(RuleResult(rule, bool(ok), msg, float(margin), unit if math.isfinite(margin) else ""))
 
     lim1 = phi1_limit_deg(d)
     ok = d.phi1_deg <= lim1
+    margin = lim1 - d.phi1_deg
     msg = f"phi1_deg = {d.phi1_deg:g}: must be <= {lim1:.2f} deg (side links reach the fiber post)"
     if ok and not d.is_basis:
         lim2 = phi2_limit_deg(d, lay)
         ok = d.phi2_deg <= lim2
+        margin = min(margin, lim2 - d.phi2_deg)
         msg = f"phi2_deg = {d.phi2_deg:g}: must be <= {lim2:.2f} deg (platform meets the top plate)"
-    add("angle_limits", ok, msg)
+    add("angle_limits", ok, msg, margin, "deg")
 
     used = d.used_thickness_mm
     thinnest = min(used)
@@ -213,13 +220,14 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
     webs = {"link_width_mm": d.link_width_mm, "plate_thickness_mm": d.plate_thickness_mm,
             "platform_thickness_mm": d.platform_thickness_mm, "knee_width_mm": d.knee_width_mm}
     web, wval = min(webs.items(), key=lambda kv: kv[1])
+    margin = min(thinnest, wval) - d.min_feature_mm
     if thinnest < d.min_feature_mm:
         add("min_feature", False, f"hinge {which} thickness = {thinnest:g} mm: must be >= "
-            f"min_feature_mm = {d.min_feature_mm:g} mm (what the cutting process can hold)")
+            f"min_feature_mm = {d.min_feature_mm:g} mm (what the cutting process can hold)", margin)
     elif wval < d.min_feature_mm:
-        add("min_feature", False, f"{web} = {wval:g} mm: must be >= min_feature_mm = {d.min_feature_mm:g} mm")
+        add("min_feature", False, f"{web} = {wval:g} mm: must be >= min_feature_mm = {d.min_feature_mm:g} mm", margin)
     else:
-        add("min_feature", True, f"thinnest hinge {thinnest:g} mm >= {d.min_feature_mm:g} mm")
+        add("min_feature", True, f"thinnest hinge {thinnest:g} mm >= {d.min_feature_mm:g} mm", margin)
 
     links = [p for p in parts if p.kind == "link"]
     lengths = [math.hypot(*(p.axis[1] - p.axis[0])) for p in links]
@@ -227,14 +235,15 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
     shortest = links[lengths.index(llen)]
     add("hinge_fits", llen >= d.link_width_mm,
         f"hinge_length_mm = {d.hinge_length_mm:g}: leaves the {shortest.name} only {llen:.2f} mm "
-        f"between its hinges; must be >= link_width_mm = {d.link_width_mm:g} mm")
+        f"between its hinges; must be >= link_width_mm = {d.link_width_mm:g} mm", llen - d.link_width_mm)
 
     lo, hi = poly.reshape(-1, 2).min(0), poly.reshape(-1, 2).max(0)
     tol = 1e-9
     inside = (lo[0] >= -d.width_mm / 2 - tol and hi[0] <= d.width_mm / 2 + tol
               and lo[1] >= -tol and hi[1] <= d.height_mm + tol)
     add("footprint", inside, f"body spans x [{lo[0]:.2f}, {hi[0]:.2f}], y [{lo[1]:.2f}, {hi[1]:.2f}] mm: "
-        f"must fit the footprint width_mm = {d.width_mm:g} x height_mm = {d.height_mm:g}")
+        f"must fit the footprint width_mm = {d.width_mm:g} x height_mm = {d.height_mm:g}",
+        min(lo[0] + d.width_mm / 2, d.width_mm / 2 - hi[0], lo[1], d.height_mm - hi[1]))
 
     if overlap.any():
         k = int(np.argmax(overlap))
@@ -245,11 +254,13 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
     gaps = np.where(overlap, np.inf, dist)
     k = int(np.argmin(gaps))
     add("kerf_gap", gaps[k] >= d.kerf_mm - 1e-9,
-        f"gap between {parts[I[k]].name} and {parts[J[k]].name} = {gaps[k]:.3f} mm: must be >= kerf_mm = {d.kerf_mm:g} mm")
+        f"gap between {parts[I[k]].name} and {parts[J[k]].name} = {gaps[k]:.3f} mm: must be >= kerf_mm = {d.kerf_mm:g} mm",
+        gaps[k] - d.kerf_mm)
 
     if d.is_basis:
         add("platform_inside", d.fiber_clearance_mm >= d.kerf_mm,
-            f"fiber_clearance_mm = {d.fiber_clearance_mm:g}: must be >= kerf_mm = {d.kerf_mm:g} mm")
+            f"fiber_clearance_mm = {d.fiber_clearance_mm:g}: must be >= kerf_mm = {d.kerf_mm:g} mm",
+            d.fiber_clearance_mm - d.kerf_mm)
     else:
         top = lay.output_point[1] + d.platform_thickness_mm
         msgs = []
@@ -260,7 +271,8 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
         if lay.post_top <= lay.y_base:
             msgs.append(f"mirror at y = {lay.output_point[1]:.2f} mm leaves no room for the fiber post "
                         f"(fiber_clearance_mm = {d.fiber_clearance_mm:g})")
-        add("platform_inside", not msgs, "; ".join(msgs) or "platform inside the hexagon, mirror fits")
+        add("platform_inside", not msgs, "; ".join(msgs) or "platform inside the hexagon, mirror fits",
+            min(d.platform_width_mm - MIRROR_MIN_MM, lay.y_top - d.kerf_mm - top))
     return FeasibilityReport(d, tuple(res))
 
 

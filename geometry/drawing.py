@@ -5,12 +5,17 @@ imported when drawn)."""
 from __future__ import annotations
 
 import math
+import textwrap
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from geometry import style
 from geometry.layout import kinematic_amplification, make_layout, make_parts
 from geometry.params import Design
+
+style.use()
+
 
 _BODY, _EDGE, _HINGE, _PORT, _DIM = "#e8dcc0", "#333333", "#b22222", "#1f4e9c", "#555555"
 
@@ -120,10 +125,30 @@ def plot_profile(design: Design, ax) -> None:
     a_kin = kinematic_amplification(design.phi1_deg, design.phi2_deg)
     ax.set_title(f"{design.name}: {phi}, hinges {design.hinge_set}, "
                  f"$A_{{kin}}$ = {a_kin:.2f}", fontsize=10)
+    ax.text(0.5, 0.0, textwrap.fill(hinge_thickness_note(design), 58), transform=ax.transAxes,
+            ha="center", va="top", fontsize=8.5, color=_HINGE)
     ax.set_xlim(-W / 2 - 4.5, W / 2 + 2.0)
     ax.set_ylim(-4.5, H + 4.0)
     ax.set_aspect("equal")
     ax.set_axis_off()
+
+
+def hinge_thickness_note(design: Design) -> str:
+    """The hinge thicknesses, hinges of equal thickness (to 0.01 mm) together:
+    ``"hinge thickness: 1-8 0.50 mm, 9-12 0.30 mm"``."""
+    groups: dict[str, list[int]] = {}
+    for number, t in enumerate(design.hinge_thickness_mm, start=1):
+        groups.setdefault(f"{t:.2f}", []).append(number)
+
+    def numbers(ns: list[int]) -> str:
+        runs, start = [], ns[0]
+        for prev, n in zip(ns, ns[1:] + [None]):
+            if n != prev + 1:
+                runs.append(f"{start}-{prev}" if prev > start else f"{start}")
+                start = n
+        return ", ".join(runs)
+
+    return "hinge thickness: " + "; ".join(f"{numbers(ns)} {t} mm" for t, ns in groups.items())
 
 
 def profile_figure(design: Design) -> Figure:

@@ -8,6 +8,7 @@ builds and checks every file's content, and only then writes them through
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -77,10 +78,28 @@ def kerf_path(design: Design, face: cq.Face, kerf_mm: float) -> cq.Face:
     return path
 
 
+#: The date in every STEP header (ezdxf's fixed metadata writes the same date into the DXF):
+#: a file depends only on its design, so its SHA-256 checks a rerun.
+FIXED_TIMESTAMP = "2000-01-01T00:00:00"
+
+
+@contextlib.contextmanager
+def _fixed_dxf_metadata():
+    """ezdxf's fixed metadata while a document is made and saved: creation and update dates
+    2000-01-01, constant $VERSIONGUID and $FINGERPRINTGUID, no time in its CREATED_BY marker."""
+    fixed = ezdxf.options.write_fixed_meta_data_for_testing
+    ezdxf.options.write_fixed_meta_data_for_testing = True
+    try:
+        yield
+    finally:
+        ezdxf.options.write_fixed_meta_data_for_testing = fixed
+
+
 def dxf_document(face: cq.Face) -> ezdxf.document.Drawing:
     """A DXF (R2010, $INSUNITS = mm) with the outline on layer OUTLINE and each hole on layer
     HOLES, each one closed LWPOLYLINE of lines and arcs (bulges), 1:1 in mm."""
-    doc = ezdxf.new("R2010", units=ezdxf.units.MM)
+    with _fixed_dxf_metadata():
+        doc = ezdxf.new("R2010", units=ezdxf.units.MM)
     doc.layers.add(LAYER_OUTLINE, color=7)
     doc.layers.add(LAYER_HOLES, color=1)
     msp = doc.modelspace()
@@ -111,15 +130,52 @@ def checked_mesh(design: Design, face: cq.Face | None = None) -> trimesh.Trimesh
 
 
 def _save_dxf(doc: ezdxf.document.Drawing, tmp: Path) -> None:
-    doc.saveas(tmp)
+    """Save with fixed metadata and the CLASSES section in a fixed order: ezdxf adds the
+    classes of the entity types in use from a set, in an order that changes with Python's
+    string hashing from one process to the next; here ezdxf's required classes come first in
+    its order, then the others by name."""
+    from ezdxf.sections.classes import REQ_R2004, REQUIRED_CLASSES
+
+    with _fixed_dxf_metadata():
+        doc.classes.add_required_classes(doc.dxfversion)
+        rank = {name: i for i, name in enumerate(REQUIRED_CLASSES.get(doc.dxfversion, REQ_R2004))}
+        doc.classes.classes = dict(sorted(doc.classes.classes.items(),
+                                          key=lambda item: (rank.get(item[0][0], len(rank)), item[0])))
+        doc.saveas(tmp)
 
 
 def _save_stl(mesh: trimesh.Trimesh, tmp: Path) -> None:
     mesh.export(tmp, file_type="stl")
 
 
-def _save_step(solid: cq.Solid, tmp: Path) -> None:
-    if not solid.exportStep(str(tmp)):
+def _save_step(named: tuple[str, cq.Solid], tmp: Path) -> None:
+    """An AP214 STEP file in mm (as CadQuery's ``exportStep``) that depends only on the solid:
+    the header's FILE_NAME is the design's name at :data:`FIXED_TIMESTAMP`, and the product
+    is named after the design (OCCT numbers it by a per-process counter otherwise)."""
+    from OCP.APIHeaderSection import APIHeaderSection_MakeHeader
+    from OCP.IFSelect import IFSelect_ReturnStatus
+    from OCP.Interface import Interface_Static
+    from OCP.StepBasic import StepBasic_Product
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.TCollection import TCollection_HAsciiString
+
+    name, solid = named
+    writer = STEPControl_Writer()
+    Interface_Static.SetIVal_s("write.surfacecurve.mode", 1)
+    Interface_Static.SetIVal_s("write.precision.mode", 0)
+    Interface_Static.SetCVal_s("xstep.cascade.unit", "MM")
+    Interface_Static.SetCVal_s("write.step.unit", "MM")
+    writer.Transfer(solid.wrapped, STEPControl_AsIs)
+    model = writer.Model()
+    for k in range(1, model.NbEntities() + 1):
+        entity = model.Value(k)
+        if isinstance(entity, StepBasic_Product):
+            entity.SetId(TCollection_HAsciiString(name))
+            entity.SetName(TCollection_HAsciiString(name))
+    header = APIHeaderSection_MakeHeader(model)
+    header.SetName(TCollection_HAsciiString(name))
+    header.SetTimeStamp(TCollection_HAsciiString(FIXED_TIMESTAMP))
+    if writer.Write(str(tmp)) != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OSError(f"could not write STEP file {tmp}")
 
 
@@ -151,7 +207,7 @@ def export_design(design: Design, out_dir: str | Path, formats: Iterable[str] = 
     if "stl" in formats:
         built["stl"] = (_save_stl, checked_mesh(design, face))
     if "step" in formats:
-        built["step"] = (_save_step, extrude(face, design.sheet_thickness_mm))
+        built["step"] = (_save_step, (design.name, extrude(face, design.sheet_thickness_mm)))
     if "json" in formats:
         built["json"] = (_save_text, model_to_json(build_beam_model(design)) + "\n")
     out = Path(out_dir)

@@ -335,6 +335,9 @@ def load_design(path: str | Path) -> Design:
 
 
 def save_design(design: Design, path: str | Path) -> None:
-    """Write a design as TOML (atomically)."""
+    """Write a design as TOML (atomically), under comments naming the dacm version and the
+    command that wrote it."""
+    from geometry.provenance import comment_header
+
     with atomic_path(path) as tmp:
-        tmp.write_bytes(tomli_w.dumps({"design": design_to_dict(design)}).encode())
+        tmp.write_bytes((comment_header() + tomli_w.dumps({"design": design_to_dict(design)})).encode())

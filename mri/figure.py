@@ -95,6 +95,10 @@ def _scale_bar(ax, spacing_mm: tuple[float, float], cols: int) -> None:
 def pair_figure(panels: list[PairPanel]):
     """A matplotlib figure with one row (a, b, a - b; or a and its noise image) per panel."""
     from matplotlib.figure import Figure
+
+    from geometry import style
+
+    style.use()
     from matplotlib.lines import Line2D
 
     n_cols = max(2 if p.b is None else 3 for p in panels)
@@ -106,7 +110,7 @@ def pair_figure(panels: list[PairPanel]):
         for ax, (image, name, style, bar) in zip(row, columns):
             shown = ax.imshow(image, interpolation="nearest", **style)
             _draw_rois(ax, panel.rois)
-            ax.set_title(name, fontsize=9)
+            ax.set_title(name, fontsize=11)
             ax.set_xticks([])
             ax.set_yticks([])
             ax.set_xlim(-0.5 - 1, image.shape[1] - 0.5 + 1)
@@ -118,10 +122,10 @@ def pair_figure(panels: list[PairPanel]):
         for ax in row[len(columns):]:
             ax.set_axis_off()
         if len(panels) > 1:  # rows named only when there are several (reference vs conditions)
-            row[0].set_ylabel(panel.title, fontsize=9)
+            row[0].set_ylabel(panel.title, fontsize=11)
         for k, roi in enumerate(panel.rois):
             colour = ROI_COLOURS[k % len(ROI_COLOURS)]
             legend.setdefault((roi.label, colour), Line2D([], [], color=colour, label=roi.label))
     fig.legend(handles=list(legend.values()), loc="outside lower center",
-               ncols=min(3, len(legend)), fontsize=8, frameon=False)
+               ncols=min(3, len(legend)), fontsize=10, frameon=False)
     return fig

@@ -20,9 +20,10 @@ import tomllib
 import warnings
 
 from geometry.errors import GeometryError
+from geometry.provenance import record_command
 from mri.errors import MriError
 from sensor.cli.output import session
-from sensor.cli.parser import build_parser, parse  # noqa: F401 (build_parser: the CLI's public name)
+from sensor.cli.parser import build_parser, parse, suggest_choice  # noqa: F401 (build_parser: the CLI's public name)
 from sensor.errors import ResourceNote, SensorError, SweepInterrupted, Terminated
 
 #: Exceptions that mean "bad input", reported in one line with exit status 2.
@@ -75,6 +76,7 @@ def _is_main_thread() -> bool:
 def main(argv: list[str] | None = None) -> int:
     command = None
     _stopped_by.clear()
+    record_command(["dacm", *(sys.argv[1:] if argv is None else argv)])
     try:
         args = parse(argv)
         command = args.command
@@ -92,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     except USER_ERRORS as exc:
         if _stopped_by:
             return _report_stop(command, _stopped_by[-1])
-        print(f"dacm {command}: error: {_one_line(exc)}", file=sys.stderr)
+        print(f"dacm {command}: error: {suggest_choice(_one_line(exc))}", file=sys.stderr)
         return 2
     except Exception:
         if _stopped_by:

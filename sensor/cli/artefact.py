@@ -7,7 +7,7 @@ import argparse
 import json
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
 from sensor.cli.progress import add_quiet_argument, busy
 
 #: Library field -> flag, for the one-line errors.
@@ -88,11 +88,11 @@ def run(args: argparse.Namespace) -> int:
         with atomic_path(paths[0]) as tmp:
             tmp.write_text(json.dumps(summary, indent=1) + "\n")
         for fig, path in zip(figures, paths[1:3]):
-            save_figure(fig, path, dpi=110)
+            save_figure(fig, path)
         with atomic_path(paths[3]) as tmp:
             write_dataset(maps, tmp)
     if args.json:
-        print(json.dumps(summary, indent=1))
+        print_json(summary, paths)
         return 0
     print(describe(summary))
     for p in paths:

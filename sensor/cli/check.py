@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
+import dataclasses
 
 from sensor.cli.design_args import add_design_arguments, design_from_args
+from sensor.cli.output import print_json
 
 
 def register(subparsers) -> None:
@@ -28,10 +29,9 @@ def run(args: argparse.Namespace) -> int:
     report = check_design(d)
     a_kin = kinematic_amplification(d.phi1_deg, d.phi2_deg)
     if args.json:
-        print(json.dumps({"design": d.name, "phi1_deg": d.phi1_deg, "phi2_deg": d.phi2_deg,
-                          "feasible": report.feasible, "A_kin": a_kin,
-                          "rules": [{"rule": r.rule, "ok": r.ok, "message": r.message}
-                                    for r in report.results]}, indent=1))
+        print_json({"design": d.name, "phi1_deg": d.phi1_deg, "phi2_deg": d.phi2_deg,
+                    "feasible": report.feasible, "A_kin": a_kin,
+                    "rules": [dataclasses.asdict(r) for r in report.results]})
     else:
         phi2 = "basis (no middle branch)" if d.is_basis else f"phi2 = {d.phi2_deg:g} deg"
         print(f"design {d.name}: phi1 = {d.phi1_deg:g} deg, {phi2}")

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 #: The files written to --out (basis.toml when a basis body reaches the range).
@@ -148,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
     if basis is None:
         out["basis_unreachable"] = no_basis
     if args.json:
-        print(json.dumps(out, indent=1, default=str))
+        print_json(out, list(paths.values()))
         return 0
     print(f"range {args.range_N:g} N at {args.travel:g} mm travel ({cut_note(design.kerf_mm)}): "
           f"{out['evaluations']} bodies evaluated in {out['seconds']:.1f} s")

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 from geometry.params import FIELD_RULES
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 #: Format flags: flag -> (format of geometry.export, what it is).
@@ -51,8 +50,7 @@ def run(args: argparse.Namespace) -> int:
         with staged(args) as stage:
             export_design(design, stage, formats, kerf_mm=args.kerf)
     if args.json:
-        print(json.dumps({"design": design.name, "kerf_mm": args.kerf,
-                          "files": {fmt: str(p) for fmt, p in zip(formats, written)}}, indent=1))
+        print_json({"design": design.name, "kerf_mm": args.kerf, "formats": formats}, written)
         return 0
     for path in written:
         print(f"wrote {path}")

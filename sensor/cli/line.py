@@ -7,10 +7,9 @@ Argument parsing, printing and file names only; the analysis is
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.errors import SensorInputError
 from sensor.pneumatic.lines import LINE_MODELS
@@ -101,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
             save_figure(step_figure(result), stage / files[1].name, dpi=100)
     result["files"] = [str(p) for p in files]
     if args.json:
-        print(json.dumps(result))
+        print_json(result, result["files"])
         return 0
     ref = result["reference"]
     band = "0.8 f_res" if ref["first_resonance_hz"] is not None else "fmax"

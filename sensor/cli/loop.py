@@ -9,7 +9,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from sensor.cli.output import add_output_arguments, claim, make_out_dir
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json
 from sensor.cli.progress import counting
 from sensor.errors import SensorInputError
 
@@ -154,7 +154,8 @@ def run(args) -> int:
         if issubclass(w.category, CapacityWarning):
             print(f"dacm loop: warning: {w.message}", file=sys.stderr)
     if args.json:
-        print(json.dumps(result, indent=1))
+        files = result.pop("files", None) or ([result.pop("plot")] if "plot" in result else [])
+        print_json(result, files)
     return 0
 
 
@@ -178,7 +179,7 @@ def _run_one(args) -> dict:
               "energy": setup.energy,
               "gains": json.loads(ds.attrs["gains"]), **m}
     if not args.no_plots:
-        result["plot"] = str(save_figure(loop_figure(ds, setup), args.out / "loop.png", dpi=90))
+        result["plot"] = str(save_figure(loop_figure(ds, setup), args.out / "loop.png"))
     if not args.json:
         print(f"{setup.controller} control, {setup.observer} observer, {setup.reference} ({setup.amplitude_N:.3g} N "
               f"about {setup.offset_N:.3g} N), {setup.line_length_m:g} m lines, {setup.valve}, sensor: {result['sensor']}")
@@ -254,5 +255,5 @@ def _write_figures(res, figs: dict, out: Path) -> list[str]:
     for name, make in figs.items():
         fig = make(res)
         if fig is not None:
-            written.append(str(save_figure(fig, out / name, dpi=90)))
+            written.append(str(save_figure(fig, out / name)))
     return written

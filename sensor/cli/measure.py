@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 from pathlib import Path
 
 from sensor.cli.design_args import add_design_arguments, design_from_args, input_file
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
 
 COLUMNS = ("force,displacement", "force,volts")
 
@@ -73,9 +72,9 @@ def run(args: argparse.Namespace) -> int:
         with staged(args) as stage:
             save_design(calibrated, stage / path.name)
         out["calibration"] = {**dataclasses.asdict(fit), "h_per_mJ": law.h_per_mJ,
-                              "h_per_mJ_default": DEFAULT_LAW.h_per_mJ, "file": str(path)}
+                              "h_per_mJ_default": DEFAULT_LAW.h_per_mJ}
     if args.json:
-        print(json.dumps(out, indent=1))
+        print_json(out, [path] if out["calibration"] else [])
         return 0
     u = measured.unit
     print(f"{args.loop} ({kind}) against {design.name}, 0 -> {measured.max_force_N:.4g} N")
@@ -91,5 +90,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"  fitted E = {c['E_MPa']:.0f} MPa (model {c['E_model_MPa']:.0f} MPa; RMS residual "
               f"{c['rms_residual_N'] * 1e3:.2f} mN); law H = {c['h_per_mJ']:.4f} x SE per mJ "
               f"(default {c['h_per_mJ_default']:.4f})")
-        print(f"wrote {c['file']}")
+        print(f"wrote {path}")
     return 0

@@ -4,7 +4,6 @@ strain energy density (pyvista, off-screen; works without a display)."""
 from __future__ import annotations
 
 import argparse
-import json
 import re
 
 from sensor.cli.design_args import (
@@ -13,7 +12,7 @@ from sensor.cli.design_args import (
     design_from_args,
     travel_rule,
 )
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
 
@@ -83,8 +82,7 @@ def run(args: argparse.Namespace) -> int:
         with staged(args) as stage:
             render_png(body, stage / out.name, title, subtitle, window)
     if args.json:
-        print(json.dumps({"design": design.name, **numbers, "displacement_scale": body.scale,
-                          "file": str(out)}, indent=1))
+        print_json({"design": design.name, **numbers, "displacement_scale": body.scale}, [out])
         return 0
     print(f"wrote {out}")
     return 0

@@ -4,12 +4,10 @@ render, continuum verification, export files with checksums, inputs and versions
 from __future__ import annotations
 
 import argparse
-import json
-import shlex
-import sys
 
+from geometry import provenance
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 
@@ -40,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     design = design_from_args(args)
     check_flags(args, {"target_output": travel_rule(design.height_mm)})
     claim(args, [p.name for p in output_paths(design, args.out)])
-    command = shlex.join(["dacm", *sys.argv[1:]]) if sys.argv[1:2] == ["report"] else ""
+    command = provenance.command()
     with busy(f"report {design.name}" + ("" if args.no_verify else " (with the continuum "
                                          "verification, about 20 s)"), args.quiet):
         with staged(args) as stage:
@@ -49,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
     path = args.out / report.path.name
     report.summary["report"] = str(path)
     if args.json:
-        print(json.dumps(report.summary, indent=1))
+        print_json({k: v for k, v in report.summary.items() if k != "files"},
+                   [args.out / f.name for f in report.files] + [report.path])
         return 0
     s, v = report.summary["solve"], report.summary["verification"]
     print(f"{design.name}: A = {s['amplification']:.4f}, range {s['range_N']:.4f} N, "

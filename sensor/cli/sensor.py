@@ -5,15 +5,15 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, flagged
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
+from sensor.cli.parser import add_target_output_argument
 from sensor.cli.progress import add_quiet_argument, busy
 from sensor.validation import Number, require_finite
 
 #: Rules of the numeric flags.
-RULES = {"full_scale": Number(0.0, 1000.0, lo_open=True, unit="mm"),
+RULES = {"target_output": Number(0.0, 1000.0, lo_open=True, unit="mm"),
          "sample_rate": Number(0.0, 1e7, lo_open=True, unit="Hz"),
          "adc_bits": Number(1, 32, integer=True),
          "na": Number(0.0, 1.0, lo_open=True),
@@ -32,11 +32,11 @@ def register(subparsers) -> None:
                     "strain-energy hysteresis law, fiber-mirror optics, noise at the sample "
                     "rate, ADC), simulate a loading-unloading calibration cycle and print the "
                     "datasheet. The gap at rest is the design's fiber_clearance_mm; full scale "
-                    "is the force that moves the mirror --full-scale mm towards the fiber. "
+                    "is the force that moves the mirror --target-output mm towards the fiber. "
                     "Writes <name>-intensity.png and <name>-calibration.png to --out.")
     add_design_arguments(p)
-    p.add_argument("--full-scale", type=float, default=1.0, metavar="MM",
-                   help="mirror travel at full scale, mm (default 1; below the fiber clearance)")
+    add_target_output_argument(p, "mirror travel at full scale, mm (default 1; below the fiber clearance)",
+                               old="--full-scale", default=1.0)
     p.add_argument("--sample-rate", type=float, default=1000.0, metavar="HZ",
                    help="sample rate, Hz; noise bandwidth is half of it (default 1000)")
     p.add_argument("--adc-bits", type=int, default=16, metavar="N", help="ADC bits (default 16)")
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(flagged(str(exc), READOUT_FLAGS)) from None
     with busy(f"sensor {design.name}", args.quiet) as step:
         step("solving and calibrating")
-        sensor = build_sensor(design, optics, readout, full_scale_travel_mm=args.full_scale,
+        sensor = build_sensor(design, optics, readout, target_output_mm=args.target_output,
                               calibration=args.calibration)
         ds = datasheet(sensor, material=design.material.name)
         step("cross-axis")
@@ -103,11 +103,11 @@ def run(args: argparse.Namespace) -> int:
                 save_figure(intensity_figure(sensor, ds, args.tolerance), stage / files[0].name)
                 save_figure(calibration_figure(sensor, ds), stage / files[1].name)
     if args.json:
-        print(json.dumps({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross), "kerf_mm": design.kerf_mm,
-                          "files": [str(f) for f in files]}, indent=1))
+        print_json({**dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross), "kerf_mm": design.kerf_mm},
+                   files)
         return 0
     rows = [
-        ("range", f"0 - {ds.range_N:.3f} N  (mirror travel {ds.full_scale_travel_mm:g} mm, "
+        ("range", f"0 - {ds.range_N:.3f} N  (mirror travel {ds.target_output_mm:g} mm, "
                   f"gap {ds.gap_max_mm:.2f} -> {ds.gap_min_mm:.2f} mm)"),
         ("output span", f"{ds.span_V:.4f} V"),
         ("sensitivity", f"{ds.sensitivity_mV_per_N:.2f} mV/N  (least-squares line)"),

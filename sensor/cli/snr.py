@@ -8,10 +8,10 @@ Measuring, checks and JSON shapes live in :mod:`mri.study`; this module parses a
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
+from sensor.cli.output import print_json
 from sensor.errors import UsageError
 
 #: = mri.snr.METHODS (not imported here: ``dacm --help`` must not import numpy/scipy).
@@ -153,6 +153,11 @@ def _write_outputs(args, pairs, panels, comparison=None) -> None:
             write_snr_report(staged["report"], pairs, panels, comparison, command)
 
 
+def _written(args) -> list[str]:
+    """The files a run wrote: those given to --csv, --figure and --report."""
+    return [p for p in (args.csv, args.figure, args.report) if p]
+
+
 def run(args) -> int:
     from sensor.cli.output import claim_files
 
@@ -169,7 +174,7 @@ def run(args) -> int:
                            args.figure_slice)] if args.figure or args.report else []
     _write_outputs(args, [pair], panels)
     if args.json:
-        print(json.dumps(pair_dict(pair), indent=2))
+        print_json(pair_dict(pair), _written(args))
     else:
         from mri.study import pair_text
 
@@ -197,7 +202,7 @@ def _run_conditions(args, options) -> int:
                            args.figure_slice) for p, _, _ in conditions] if args.figure or args.report else []
     _write_outputs(args, [reference] + [c[0] for c in conditions], panels, (reference, conditions))
     if args.json:
-        print(json.dumps(comparison_json(reference, conditions), indent=2))
+        print_json(comparison_json(reference, conditions), _written(args))
     else:
         print("\n".join(comparison_text(reference, conditions)))
         for pair in [reference] + [c[0] for c in conditions]:  # text mode, after the outputs

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from sensor.cli.design_args import (
@@ -12,6 +11,7 @@ from sensor.cli.design_args import (
     design_from_args,
     travel_rule,
 )
+from sensor.cli.output import print_json
 from sensor.validation import Number, require_finite
 
 #: Rules of the numeric flags (the target travel's depends on the body, see run).
@@ -108,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     }
     require_finite(f"solve of {name}", out)
     if args.json:
-        print(json.dumps(out, indent=1))
+        print_json(out)
         return 0
     rows = [("amplification A", f"{r.amplification:.4f}" + (f"   (A_kin {a_kin:.4f})" if a_kin else "")),
             ("output stiffness k_out", f"{r.k_out_N_per_mm:.4f} N/mm"),

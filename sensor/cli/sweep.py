@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import signal
 import time
 import tomllib
 import warnings
 from pathlib import Path
 
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, print_json, staged
 from sensor.cli.progress import CountingBar, add_quiet_argument, shown
 
 
@@ -176,7 +175,10 @@ def run(args: argparse.Namespace) -> int:
     from sensor.design_space.summary import summary, summary_text
 
     s = summary(ds, n_new, t_solve, time.monotonic() - t0, written)
-    print(json.dumps(s, indent=1) if args.json else summary_text(s))
+    if args.json:
+        print_json({k: v for k, v in s.items() if k != "files"}, written)
+    else:
+        print(summary_text(s))
     return 0
 
 

@@ -4,10 +4,9 @@ every re-entrant corner, DESIGN section 16) beside its beam model."""
 from __future__ import annotations
 
 import argparse
-import json
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
-from sensor.cli.output import add_output_arguments, claim, staged
+from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json, staged
 from sensor.cli.progress import add_quiet_argument, busy
 
 MESHES = ("coarse", "default", "fine")
@@ -73,9 +72,8 @@ def run(args: argparse.Namespace) -> int:
         with staged(args) as stage:
             save_figure(stress_field_figure(v.fe, design, title, v.fe_summary["hinge_stress_MPa"]),
                         stage / path.name, dpi=140)
-        out["figure"] = str(path)
     if args.json:
-        print(json.dumps(out, indent=1))
+        print_json(out, paths and [make_out_dir(args.out) / paths[0].name])
         return 0
     print(f"{design.name} {out['profile']}: continuum FE ({out['mesh']['elements']} quadratic triangles, "
           f"{out['mesh']['elements_across_hinge']:g} across each hinge) against the beam model")
@@ -91,6 +89,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"    hinge {h:>2}: {fe:7.2f} / {out['beam']['hinge_stress_MPa'][h]:7.2f} / "
               f"{out['errors_pct']['hinge_stress_MPa'][h]:+6.1f}   peak: {out['fe']['hinge_peak_stress_MPa'][h]:6.1f}"
               f" / {out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
-    if "figure" in out:
-        print(f"wrote {out['figure']}")
+    if paths:
+        print(f"wrote {args.out / paths[0].name}")
     return 0

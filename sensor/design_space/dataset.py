@@ -86,7 +86,7 @@ def empty_dataset(spec: SweepSpec, version: str) -> xr.Dataset:
     H, P1, P2 = list(spec.hinge_sets), spec.phi1.values, spec.phi2.values
     T = spec.family_thickness_mm()
     shape3, shape2 = (len(H), len(P1), len(P2)), (len(H), len(P1))
-    coords = {"hinges": ("hinges", H, {"units": "1", "long_name": "hinge set (hinges 1-8 and 9-12 thickness, 0.1 mm)"}),
+    coords = {"hinges": ("hinges", H, {"long_name": "hinge set (hinges 1-8 and 9-12 thickness, 0.1 mm)"}),
               "phi1_deg": ("phi1_deg", P1, {"units": "degree", "long_name": "phi1: side-link lean from the vertical"}),
               "phi2_deg": ("phi2_deg", P2, {"units": "degree", "long_name": "phi2: middle-link rise above the horizontal"}),
               "family_hinge_mm": ("family_hinge_mm", T, {"units": "mm", "long_name": "hinge 1-8 thickness of the basis family"})}
@@ -104,10 +104,11 @@ def empty_dataset(spec: SweepSpec, version: str) -> xr.Dataset:
     for k, (meanings, name) in FLAGS.items():
         dv[k] = (CELL, np.zeros(shape3, bool), {"units": "1", "long_name": name, "flag_values": np.array([0, 1], "i1"),
                                                 "flag_meanings": meanings})
+    # text variables carry no units (CF 1.10 section 3.1: units belong to numbers)
     dv["reason"] = (CELL, np.full(shape3, "", dtype=object),
-                    {"units": "1", "long_name": "why the cell is infeasible (empty if feasible)"})
+                    {"long_name": "why the cell is infeasible (empty if feasible)"})
     dv["basis_reason"] = (("hinges", "phi1_deg"), np.full(shape2, "", dtype=object),
-                          {"units": "1", "long_name": "why the basis body failed (empty if it solved)"})
+                          {"long_name": "why the basis body failed (empty if it solved)"})
     if spec.monte_carlo:
         for k in MC_QUALIFIERS:
             for s, what in MC_STATISTICS.items():
@@ -162,11 +163,19 @@ def merge_row(ds: xr.Dataset, row: dict) -> None:
         fill_equal_range(ds)
 
 
+#: In the file the hinge-set names are a label variable (CF 1.10 section 6.1.1) along the
+#: ``hinges`` dimension, named in each variable's ``coordinates``: a coordinate variable
+#: must be numeric and monotonic.
+HINGE_LABEL = "hinge_set"
+
+
 def save_dataset(ds: xr.Dataset, path: Path) -> None:
-    """Write the dataset as NetCDF, with the SHA-256 of every row in the attribute
-    ``row_sha256`` (:func:`row_checksums`), after :func:`check_dataset`. The file is made in
-    memory and written with Python's own I/O, atomically (an interrupted or failed write
-    leaves the old file; HDF5 writing to a full disk itself would crash the process)."""
+    """Write the dataset as NetCDF, CF-1.10: coordinates without ``_FillValue``, the hinge
+    sets as a label variable, flags as bytes, the command that wrote it appended to
+    ``history``, and the SHA-256 of every row in the attribute ``row_sha256``
+    (:func:`row_checksums`), after :func:`check_dataset`. The file is made in memory and
+    written with Python's own I/O, atomically (an interrupted or failed write leaves the old
+    file; HDF5 writing to a full disk itself would crash the process)."""
     from geometry.atomic import write_bytes
 
     check_dataset(ds, str(path), stored_checksums=False)  # they are replaced now
@@ -176,7 +185,25 @@ def save_dataset(ds: xr.Dataset, path: Path) -> None:
         out[k] = out[k].astype(str)
     for k in FLAGS:
         out[k] = out[k].astype("i1")
-    write_bytes(path, out.to_netcdf(engine="h5netcdf"))
+    out = out.rename_vars({"hinges": HINGE_LABEL}).drop_indexes(HINGE_LABEL)
+    out[HINGE_LABEL] = out[HINGE_LABEL].astype(str)
+    out.attrs["history"] = _history(ds.attrs.get("history", ""))
+    encoding = {k: {"_FillValue": None} for k in out.coords}
+    write_bytes(path, out.to_netcdf(engine="h5netcdf", encoding=encoding))
+
+
+def _history(history: str) -> str:
+    """``history`` with a line ``TIME: COMMAND`` for the running command, unless its last
+    line is that command already (a checkpoint saved again)."""
+    from datetime import datetime, timezone
+
+    from geometry.provenance import command, version
+
+    line = f"{command()} (dacm {version()})"
+    lines = history.splitlines()
+    if lines and lines[-1].split(": ", 1)[-1] == line:
+        return history
+    return "\n".join([*lines, f"{datetime.now(timezone.utc):%Y-%m-%dT%H:%M:%SZ}: {line}"])
 
 
 def row_checksums(ds: xr.Dataset) -> dict[str, str]:
@@ -272,6 +299,8 @@ def load_dataset(path: Path) -> xr.Dataset:
     """Read a sweep dataset written by :func:`save_dataset` (fully into memory)."""
     with xr.open_dataset(path, engine="h5netcdf") as f:
         ds = f.load()
+    labels = ds[HINGE_LABEL]
+    ds = ds.drop_vars(HINGE_LABEL).assign_coords(hinges=("hinges", labels.values.astype(str), labels.attrs))
     for k in ("reason", "basis_reason"):
         ds[k] = ds[k].astype(object)
     for k in FLAGS:
@@ -297,14 +326,20 @@ def write_csv(ds: xr.Dataset, path: Path) -> Path:
     df = ds[proposed].to_dataframe().reset_index()
     basis = ds[[v for v in ds.data_vars if ds[v].dims == ("hinges", "phi1_deg")]].to_dataframe().reset_index()
     df = df.merge(basis, on=["hinges", "phi1_deg"])
-    return write_table(df, path, {k: ds[k].attrs.get("units", "1") for k in df.columns})
+    for k in FLAGS:  # 0/1 as in the NetCDF file
+        df[k] = df[k].astype(int)
+    return write_table(df, path, {k: ds[k].attrs.get("units") for k in df.columns})
 
 
-def write_table(df, path: Path, units: dict[str, str]) -> Path:
-    """A table as CSV (atomically) with each column headed ``name [units]``."""
+def write_table(df, path: Path, units: dict[str, str | None]) -> Path:
+    """A table as CSV (atomically) with each column headed ``name [units]`` (text columns:
+    ``name``), under comment lines (``#``) naming the dacm version and the command."""
     from geometry.atomic import atomic_path
+    from geometry.provenance import comment_header
 
-    df = df.rename(columns={k: f"{k} [{units[k]}]" for k in df.columns})
+    df = df.rename(columns={k: f"{k} [{units[k]}]" for k in df.columns if units.get(k)})
     with atomic_path(path) as tmp:
-        df.to_csv(tmp, index=False, float_format="%.6g")
+        with open(tmp, "w", newline="") as fh:
+            fh.write(comment_header())
+            df.to_csv(fh, index=False, float_format="%.6g")
     return path

@@ -132,6 +132,8 @@ def answer_at(ds: xr.Dataset, hinges: str, range_N: float, tolerance: float = SA
     df = _cells(ds, hinges)
     near = df[np.abs(df["range_N"] / range_N - 1) <= tolerance]
     cell = None if near.empty else near.loc[near["hysteresis"].idxmin()].to_dict()
+    if cell is not None:  # grid indices are integers (a pandas row holds them as floats)
+        cell.update(i=int(cell["i"]), j=int(cell["j"]))
     basis = {k: float(v) for k, v in basis_at_range(ds, range_N).items()}
     loose = {k: float(v) for k, v in basis_at_range(ds, range_N, stress=False).items()}
     edge = "" if cell is None else edge_note(ds, hinges, int(cell["i"]), int(cell["j"]))

@@ -614,7 +614,7 @@ def describe(design: Design, problem: DesignProblem) -> dict:
     if m is None:
         raise DesignError(f"design {design.name}: does not solve to the travel {problem.travel_mm:g} mm ({r})")
     q = qualify(r, problem.law)
-    sheet = datasheet(build_sensor(design, law=problem.law, full_scale_travel_mm=problem.travel_mm),
+    sheet = datasheet(build_sensor(design, law=problem.law, target_output_mm=problem.travel_mm),
                       material=design.material.name)
     return {"design": design_to_dict(design), "range_N": q.range_N, "hysteresis": q.hysteresis,
             "resolution_N": sheet.resolution_N, "amplification": q.amplification,

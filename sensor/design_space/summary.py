@@ -7,6 +7,8 @@ import json
 from dataclasses import asdict
 from pathlib import Path
 
+import numpy as np
+
 from geometry.params import cut_note
 from sensor.design_space.equal_range import SAME_RANGE, SUMMARY_RANGES_N, admissible, answer_at
 
@@ -23,16 +25,37 @@ def summary(ds, n_new, t_solve_s, t_total_s, written) -> dict:
                                      "admissible_cells": int(ok.sum())}
     for r in SUMMARY_RANGES_N:
         for h in ds["hinges"].values:
-            out["equal_range"].append(_plain(asdict(answer_at(ds, str(h), r))))
+            out["equal_range"].append(_with_ratios(_plain(asdict(answer_at(ds, str(h), r)))))
     return out
 
 
+def _with_ratios(a: dict) -> dict:
+    """An answer with the ratios the summary prints, unrounded: the cell's H over the best
+    basis body's of the range (``hysteresis_ratio``; over the best regardless of stress when
+    none is within it, ``hysteresis_ratio_any_stress``), 1 / A (``inverse_amplification``)
+    and the resolution ratio; None where a body is missing."""
+    c, b, loose = a["cell"], a["basis"], a["basis_any_stress"]
+
+    def ratio(x, y):
+        return None if x is None or y is None else x / y
+
+    a["hysteresis_ratio"] = ratio(c and c["hysteresis"], b["hysteresis"])
+    a["hysteresis_ratio_any_stress"] = ratio(c and c["hysteresis"], loose["hysteresis"])
+    a["inverse_amplification"] = ratio(1.0, c and c["amplification"])
+    a["resolution_ratio"] = ratio(c and c["resolution_N"], b["resolution_N"])
+    return a
+
+
 def _plain(x):
-    """JSON-ready: numpy scalars to floats, NaN to None."""
+    """JSON-ready: numpy scalars to Python numbers (integers stay integers), NaN to None."""
     if isinstance(x, dict):
         return {k: _plain(v) for k, v in x.items()}
     if isinstance(x, str) or x is None:
         return x
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
     v = float(x)
     return None if v != v else v
 
@@ -61,13 +84,13 @@ def _answer_line(a: dict) -> str:
             f"A = {c['amplification']:.2f}, H = {c['hysteresis']:.4f}, resolution {1e3 * c['resolution_N']:.3f} mN; ")
     if b["hysteresis"] is not None:
         text += (f"basis phi1 = {b['phi1_deg']:.1f} deg, hinges {b['hinge_mm']:.3f} mm: H = {b['hysteresis']:.4f}, "
-                 f"resolution {1e3 * b['resolution_N']:.3f} mN; H ratio {c['hysteresis'] / b['hysteresis']:.3f} "
-                 f"(1/A = {1 / c['amplification']:.3f}), "
-                 f"resolution ratio {c['resolution_N'] / b['resolution_N']:.3f}")
+                 f"resolution {1e3 * b['resolution_N']:.3f} mN; H ratio {a['hysteresis_ratio']:.3f} "
+                 f"(1/A = {a['inverse_amplification']:.3f}), "
+                 f"resolution ratio {a['resolution_ratio']:.3f}")
     else:
         loose = a["basis_any_stress"]
         text += "no basis body reaches it within the allowable stress" + (
             f" (best beyond it: H = {loose['hysteresis']:.4f} at {loose['stress_utilisation']:.2f} x the "
-            f"allowable stress; H ratio {c['hysteresis'] / loose['hysteresis']:.3f})"
+            f"allowable stress; H ratio {a['hysteresis_ratio_any_stress']:.3f})"
             if loose["hysteresis"] is not None else "")
     return text + (f" [edge: {a['edge']}]" if a["edge"] else "")

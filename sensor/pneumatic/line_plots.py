@@ -8,6 +8,10 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
+from geometry import style
+
+style.use()
+
 MODEL_COLOURS = {"dead-volume": "tab:orange", "richer-hurmuzlu": "tab:purple", "two-volume": "tab:green",
                  "preliminary": "tab:brown", "distributed": "tab:red"}
 
@@ -19,7 +23,8 @@ def case_title(inputs: dict, cm3: str = "cm$^3$") -> str:
 
 
 def frequency_figure(result: dict) -> Figure:
-    """|p_end / p_in| and phase of every model against Bergh-Tijdeman (dashed)."""
+    """|p_end / p_in| and phase of every model against Bergh-Tijdeman (dashed), its first
+    resonance dotted."""
     fig = Figure(figsize=(6.4, 5.6))
     ax_a, ax_p = fig.subplots(2, 1, sharex=True)
     ref = result["reference"]
@@ -30,10 +35,11 @@ def frequency_figure(result: dict) -> Figure:
         ax_p.plot(m["frequency_hz"], m["phase_deg"], color=MODEL_COLOURS[name], lw=1.3)
     if ref["first_resonance_hz"] is not None:
         for ax in (ax_a, ax_p):
-            ax.axvline(ref["first_resonance_hz"], color="0.6", ls=":", lw=1)
+            ax.axvline(ref["first_resonance_hz"], color="0.4", ls=":", lw=1.2,
+                       label=f"first resonance, Bergh-Tijdeman ({ref['first_resonance_hz']:.3g} Hz)")
     ax_a.set(xscale="log", yscale="log", ylabel="|p_end / p_in|", title=case_title(result["inputs"]))
     ax_p.set(xlabel="frequency (Hz)", ylabel="phase (deg)")
-    ax_a.legend(fontsize=8)
+    ax_a.legend(fontsize=8.5)
     for ax in (ax_a, ax_p):
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
@@ -50,12 +56,13 @@ def step_figure(result: dict) -> Figure:
         ax_c.plot(t, [p / 1e5 for p in m["chamber_pressure_Pa"]], color=MODEL_COLOURS[name], label=name)
         ax_v.plot(t, [p / 1e5 for p in m["valve_pressure_Pa"]], color=MODEL_COLOURS[name])
     for ax in (ax_c, ax_v):
-        ax.axvline(step["valve_reversal_s"], color="0.6", ls=":", lw=1)
-        ax.axhline(result["inputs"]["pressure_Pa"] / 1e5, color="0.3", ls="--", lw=0.8)
+        ax.axvline(step["valve_reversal_s"], color="0.4", ls=":", lw=1.2,
+                   label=f"valve vents ({step['valve_reversal_s']:g} s)")
+        ax.axhline(result["inputs"]["pressure_Pa"] / 1e5, color="0.3", ls="--", lw=0.8, label="supply")
         ax.grid(True, alpha=0.3)
     ax_c.set(ylabel="chamber P (bar abs)",
-             title=f"fixed-volume step, valve {step['valve']} (dashed: supply)\n{case_title(result['inputs'])}")
+             title=f"fixed-volume step, valve {step['valve']}\n{case_title(result['inputs'])}")
     ax_v.set(xlabel="time (s)", ylabel="valve port P (bar abs)")
-    ax_c.legend(fontsize=8)
+    ax_c.legend(fontsize=8.5)
     fig.tight_layout()
     return fig

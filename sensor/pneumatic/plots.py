@@ -10,14 +10,18 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
+from geometry import style
 from sensor.pneumatic.loop_metrics import window
 from sensor.pneumatic.studies import CH5_HEADINGS, CH5_PRIMARY, ESTIMATOR_HEADINGS
+
+style.use()
+
 
 ESTIMATOR_COLOURS = {"observer": "tab:blue", "open_loop": "tab:orange", "valve_ports": "tab:green"}
 CONTROLLER_COLOURS = {"smc": "tab:red", "line_model_thesis": "tab:blue", "smc_rule": "tab:red",
                       "line_model_thesis_rule": "tab:blue", "line_model_damped": "tab:green"}
 WINDOW_SHADE = {"color": "0.85", "zorder": 0}
-OUTSIDE = {"fontsize": 7, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
+OUTSIDE = {"fontsize": 8.5, "loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
 
 
 def _mark_window(ax, sl) -> None:
@@ -37,20 +41,31 @@ def loop_figure(ds, setup) -> Figure:
     t = ds.time.values
     a = ax[0, 0]
     _mark_window(a, sl)
-    a.plot(t, ds.measured_force_N.values, color="tab:gray", lw=0.6, label="force reading")
-    a.plot(t, ds.environment_force.values, color="tab:blue", lw=1.0, label="contact force F_e")
+    a.plot(t, ds.environment_force.values, color="tab:blue", lw=2.5, alpha=0.5, label="contact force F_e (wide)")
+    a.plot(t, ds.measured_force_N.values, color="0.2", lw=0.6, label="force reading")
     a.plot(t, ds.desired_force_N.values, color="k", ls="--", lw=1.0, label="desired F_d")
     a.set(xlabel="time (s)", ylabel="force (N)",
           title=f"{setup.controller}, {setup.reference}, {setup.line_length_m:g} m")
     a.legend(**OUTSIDE)
     for s, a in ((1, ax[0, 1]), (2, ax[1, 0])):
         _mark_window(a, sl)
-        a.plot(t, ds.pressure_valve.sel(side=s).values / 1e3, color="tab:green", lw=0.8, label="valve port")
-        if f"line_model_pressure_{s}_Pa" in ds:
-            a.plot(t, ds[f"line_model_pressure_{s}_Pa"].values / 1e3, color="tab:purple", lw=0.8, label="line model")
-        a.plot(t, ds[f"estimated_pressure_{s}_Pa"].values / 1e3, color="tab:orange", lw=1.0,
-               label=f"{setup.observer} estimate")
-        a.plot(t, ds.pressure_chamber.sel(side=s).values / 1e3, color="k", lw=1.0, label="chamber (true)")
+        # over the whole run and, inset, over the MSE window; the true pressure wide and light
+        # underneath, so the estimates that follow it show
+        inset = a.inset_axes([0.52, 0.06, 0.45, 0.4])
+        for target, part in ((a, slice(None)), (inset, sl)):
+            w = ds.sel(time=part)
+            tw = w.time.values
+            target.plot(tw, w.pressure_chamber.sel(side=s).values / 1e3, color="0.55", lw=3.5, alpha=0.6,
+                    label="chamber (true, wide)", zorder=1)
+            target.plot(tw, w.pressure_valve.sel(side=s).values / 1e3, color="tab:green", lw=0.8, label="valve port",
+                    zorder=2)
+            if f"line_model_pressure_{s}_Pa" in ds:
+                target.plot(tw, w[f"line_model_pressure_{s}_Pa"].values / 1e3, color="tab:purple", lw=0.8, ls="-.",
+                        label="line model", zorder=3)
+            target.plot(tw, w[f"estimated_pressure_{s}_Pa"].values / 1e3, color="tab:orange", lw=1.0, ls=(0, (4, 2)),
+                    label=f"{setup.observer} estimate", zorder=4)
+        inset.set_title("MSE window", fontsize=8, pad=2)
+        inset.tick_params(labelsize=7.5)
         a.set(xlabel="time (s)", ylabel="pressure (kPa abs)", title=f"chamber {s}")
         a.legend(**OUTSIDE)
     a = ax[1, 1]
@@ -59,7 +74,6 @@ def loop_figure(ds, setup) -> Figure:
            color="tab:orange", lw=0.7)
     a.set(xlabel="P~1 (kPa)", ylabel="P~2 (kPa)", aspect="equal", adjustable="datalim",
           title=f"estimation error over the MSE window {sl.start:.3g}-{sl.stop:.3g} s (cf. Figures 16-18)")
-    a.title.set_fontsize(9)
     a.axhline(0, color="0.6", lw=0.5)
     a.axvline(0, color="0.6", lw=0.5)
     return fig
@@ -76,7 +90,7 @@ def observer_phase_figure(res) -> Figure:
             a.plot(_pressure_error_kPa(w, 1, "estimated_pressure_1_Pa"), _pressure_error_kPa(w, 2, "estimated_pressure_2_Pa"),
                    lw=0.7, color=ESTIMATOR_COLOURS[key], label=f"{ESTIMATOR_HEADINGS[key]} ({e[key]:.3g} kPa^2)")
         a.set(xlabel="P~1 (kPa)", ylabel="P~2 (kPa)", title=f"{e['figure']}: {e['experiment']}, 7.25 m")
-        a.legend(fontsize=7)
+        a.legend(fontsize=8)
     return fig
 
 
@@ -104,7 +118,7 @@ def observer_smc_figure(res) -> Figure:
         a.axvline(sw["on_s"], color="k", ls="--", lw=1, label=f"observer on ({sw['on_s']:g} s)")
         a.set(yscale="linear" if unit == "N^2" else "log", xlabel="cycle start (s)", ylabel=f"per-cycle MSE ({unit})",
               title=f"Figure 27: {'force' if unit == 'N^2' else 'pressure'} MSE per cycle")
-        a.legend(fontsize=7)
+        a.legend(fontsize=8)
     return fig
 
 
@@ -124,7 +138,7 @@ def controller_mse_figure(res) -> Figure:
         t4 = [(L, get[(L, ref)]["thesis_table4"]["mse1_N2"]) for L in lengths if get[(L, ref)]["thesis_table4"]]
         a.plot([x[0] for x in t4], [x[1] for x in t4], "k^--", ms=5, lw=0.8, label="Table 4 (thesis, measured)")
         a.set(yscale="log", xlabel="line length (m)", ylabel="MSE_1 (N^2)", title=f"Figure 32: {ref}")
-        a.legend(fontsize=6)
+        a.legend(fontsize=8)
     a = ax[-1]
     ref = refs[-1]
     a.plot(lengths, [get[(L, ref)]["line_model_thesis"]["pressure_mse_kPa2"] for L in lengths], "o-", color="tab:orange",
@@ -134,7 +148,7 @@ def controller_mse_figure(res) -> Figure:
     a.plot(lengths, [get[(L, ref)]["line_model_damped"]["line_model_pressure_mse_kPa2"] for L in lengths], "s-",
            color=CONTROLLER_COLOURS["line_model_damped"], label="line model (ours)")
     a.set(yscale="log", xlabel="line length (m)", ylabel="pressure MSE (kPa^2)", title=f"Figure 37: {ref}")
-    a.legend(fontsize=6)
+    a.legend(fontsize=8)
     return fig
 
 
@@ -155,8 +169,7 @@ def controller_virtual_input_figure(res, length_m: float = 5.0, seconds: float =
         a.plot(t, w.environment_force.values, color="tab:blue", lw=0.8, label="F_e")
         a.plot(t, w.desired_force_N.values, color="k", ls="--", lw=0.8, label="F_d")
         a.set(xlabel="time (s)", ylabel="force (N)", title=f"{length_m:g} m, {k[1]}: {CH5_HEADINGS[k[2]]}")
-        a.title.set_fontsize(9)
-        a.legend(fontsize=6, loc="upper right")
+        a.legend(fontsize=8, loc="upper right")
     return fig
 
 
@@ -176,12 +189,12 @@ def sensor_figure(res) -> Figure:
         a.plot(t, w.environment_force.values, color="tab:blue", lw=0.9, label="contact force")
         a.plot(t, w.desired_force_N.values, color="k", ls="--", lw=0.8, label="F_d")
         a.set(xlabel="time (s)", ylabel="force (N)", title=name)
-        a.legend(fontsize=6, loc="upper right")
+        a.legend(fontsize=8, loc="upper right")
     a = ax[-1]
     for j, (kind, colour) in enumerate((("DACM", "tab:blue"), ("load cell", "tab:gray"))):
         vals = [next(r["force_mse_N2"] for r in rows if r["sensor"] == n and r["reading"].startswith(kind)) for n in names]
         a.bar([i + 0.4 * j for i in range(len(names))], vals, 0.4, color=colour, label=kind)
     a.set_xticks([i + 0.2 for i in range(len(names))], [n.replace("-as-cut", "") for n in names])
     a.set(ylabel="force MSE (N^2)", title="force-control error")
-    a.legend(fontsize=7)
+    a.legend(fontsize=8)
     return fig

@@ -29,7 +29,7 @@ class Datasheet:
 
     name: str
     range_N: float
-    full_scale_travel_mm: float
+    target_output_mm: float
     gap_min_mm: float
     gap_max_mm: float
     span_V: float
@@ -71,7 +71,7 @@ def datasheet(sensor: SensorModel, material: str = "") -> Datasheet:
     sens = 1e3 / cal.slope_N_per_V
     lo, hi = sensor.gap_range_mm
     return Datasheet(
-        name=sensor.name, range_N=sensor.range_N, full_scale_travel_mm=sensor.full_scale_travel_mm,
+        name=sensor.name, range_N=sensor.range_N, target_output_mm=sensor.target_output_mm,
         gap_min_mm=lo, gap_max_mm=hi, span_V=float(np.ptp(volts)), sensitivity_mV_per_N=sens,
         resolution_N=float(np.max(np.abs(slope) * np.sqrt(sigma**2 + q**2 / 12.0))),
         nonlinearity_pct=100.0 * float(nonlin), hysteresis_pct=100.0 * hyst,

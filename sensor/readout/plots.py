@@ -9,9 +9,12 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from geometry import style
 from sensor.readout.datasheet import Datasheet
 from sensor.readout.optics import output_voltage, working_range
 from sensor.readout.sensor_model import SensorModel, loading_cycle
+
+style.use()
 
 
 def intensity_figure(sensor: SensorModel, ds: Datasheet, tolerance_pct: float) -> Figure:

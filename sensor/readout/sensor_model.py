@@ -166,7 +166,7 @@ class Transducer:
 
     name: str
     range_N: float                 # force at full-scale travel, N
-    full_scale_travel_mm: float    # mirror travel at range_N, mm
+    target_output_mm: float    # mirror travel at range_N, mm
     fiber_clearance_mm: float      # fiber-mirror gap at rest, mm
     input_travel_mm: float         # input (top plate) travel at range_N, mm
     strain_energy_mJ: float        # at full scale
@@ -183,7 +183,7 @@ class Transducer:
     @property
     def gap_range_mm(self) -> tuple[float, float]:
         """(smallest, largest) gap over the range, mm."""
-        return self.fiber_clearance_mm - self.full_scale_travel_mm, self.fiber_clearance_mm
+        return self.fiber_clearance_mm - self.target_output_mm, self.fiber_clearance_mm
 
     def noise_free_volts(self, travel_mm) -> np.ndarray:
         """Noise-free, unquantised output, V, at mirror travel(s) in mm."""
@@ -253,7 +253,7 @@ def _analog(sensor: Transducer, forces_N, rng, state):
         raise SensorInputError(f"rng = {rng!r}: must be a numpy.random.Generator or None")
     f, clipped = _checked_forces(forces_N, sensor.range_N, sensor.overload)
     h, state = preisach_offsets(f / sensor.range_N, 2.0 * sensor.hysteresis, state)
-    travel = sensor.travel_spline(f) + sensor.full_scale_travel_mm * h
+    travel = sensor.travel_spline(f) + sensor.target_output_mm * h
     gap = sensor.fiber_clearance_mm - travel
     if (gap <= 0).any():
         i = int(np.flatnonzero(gap <= 0)[0])
@@ -305,7 +305,7 @@ def fit_calibration(forces_N, volts, method: str = "curve") -> Calibration:
 
 
 def build_sensor(design: Design, optics: OpticsSetup = OpticsSetup(), readout: Readout = Readout(),
-                 law: StrainEnergyLaw = DEFAULT_LAW, full_scale_travel_mm: float = 1.0,
+                 law: StrainEnergyLaw = DEFAULT_LAW, target_output_mm: float = 1.0,
                  overload: str = "raise", increments: int = 20,
                  calibration: str = "curve", calibration_points: int = 201) -> SensorModel:
     """Solve a design once and assemble its sensor model.
@@ -314,19 +314,19 @@ def build_sensor(design: Design, optics: OpticsSetup = OpticsSetup(), readout: R
     branch read noise-free and before the ADC: the ideal of a bench calibration averaging
     many samples, so what remains in a reading is hysteresis, noise and quantisation.
 
-    ``full_scale_travel_mm``: mirror travel at full scale (default 1 mm, the thesis' design
+    ``target_output_mm``: mirror travel at full scale (default 1 mm, the thesis' design
     travel and its 1 mm wide linear interval); it must stay below the design's
     ``fiber_clearance_mm`` (the gap at rest) so the mirror never touches the fiber.
     ``calibration``: "curve" or "linear" (see :class:`Calibration`).
     """
-    require(is_real(full_scale_travel_mm) and 0 < full_scale_travel_mm < design.fiber_clearance_mm,
-             "full_scale_travel_mm", full_scale_travel_mm,
+    require(is_real(target_output_mm) and 0 < target_output_mm < design.fiber_clearance_mm,
+             "target_output_mm", target_output_mm,
              f"in (0, fiber_clearance_mm = {design.fiber_clearance_mm:g}) mm: the mirror must not "
              "touch the fiber")
     require(overload in OVERLOADS, "overload", overload, f"one of {OVERLOADS}")
     require(is_integer(increments) and increments >= 4, "increments", increments,
              "an integer >= 4")
-    r = solve(build_beam_model(design), target_output_mm=full_scale_travel_mm,
+    r = solve(build_beam_model(design), target_output_mm=target_output_mm,
               options=SolverOptions(increments=increments))
     q = qualify(r, law)
     H = q.hysteresis
@@ -334,17 +334,17 @@ def build_sensor(design: Design, optics: OpticsSetup = OpticsSetup(), readout: R
              "in [0, 0.5) for this hysteresis model (a very high strain energy)")
     # Gap table: from (almost) touching to beyond rest, covering every hysteretic excursion.
     clearance = design.fiber_clearance_mm
-    gaps = np.linspace(0.0, clearance + 2 * H * full_scale_travel_mm, GAP_TABLE_POINTS)
+    gaps = np.linspace(0.0, clearance + 2 * H * target_output_mm, GAP_TABLE_POINTS)
     volts = output_voltage(gaps, optics, readout.model)
     noise = noise_rms_V(optics, readout.bandwidth_Hz, gaps, readout.model, readout.mode)
     t = Transducer(
-        name=design.name, range_N=q.range_N, full_scale_travel_mm=float(full_scale_travel_mm),
+        name=design.name, range_N=q.range_N, target_output_mm=float(target_output_mm),
         fiber_clearance_mm=clearance, input_travel_mm=r.input_travel_mm,
         strain_energy_mJ=r.strain_energy_mJ, hysteresis=H, optics=optics, readout=readout,
         overload=overload, curve_force_N=r.force_N, curve_travel_mm=r.output_mm,
         travel_spline=PchipInterpolator(r.force_N, r.output_mm),
         volts_spline=CubicSpline(gaps, volts), noise_spline=CubicSpline(gaps, noise))
-    span = t.noise_free_volts([0.0, full_scale_travel_mm])
+    span = t.noise_free_volts([0.0, target_output_mm])
     if min(span) < readout.adc_min_V or max(span) > readout.adc_max_V - readout.adc_step_V:
         raise SensorRangeError(f"output {min(span):.4g}..{max(span):.4g} V over the range: must "
                                f"fit the ADC range [{readout.adc_min_V:g}, {readout.adc_max_V:g}] V "

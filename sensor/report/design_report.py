@@ -6,18 +6,24 @@ What it holds, each computed by the tool's own functions (nothing is re-derived 
    design's main parameters;
 2. the solve to the target output travel (:func:`sensor.mechanics.solver.solve`) and its
    qualifiers (:func:`sensor.mechanics.qualifiers.qualify`: A, k_out, sensitivity, SE,
-   predicted H, quality, range), with the hinge rotations;
+   predicted H, quality, range), with the hinge rotations; the feasibility rules it passed
+   with their margins (:func:`geometry.checks.check_design`) and every hinge's peak stress
+   at full scale against the allowable (:func:`sensor.mechanics.stress.hinge_stresses`);
 3. the sensor datasheet (:func:`sensor.readout.datasheet.datasheet`, cross-axis ratio) with
    the calibration and intensity plots (:mod:`sensor.readout.plots`);
 4. the deformed body in 3D (:mod:`sensor.mechanics.render`, off-screen);
 5. the verification against the continuum model (``verify_design`` of
-   ``sensor.mechanics.continuum``) when that module is part of the installed tool, otherwise
-   a line saying it was not run and why;
+   ``sensor.mechanics.continuum``) with its stress field when that module is part of the
+   installed tool, otherwise a line saying it was not run and why;
 6. the files written beside it (:func:`geometry.export.export_design` and the design TOML
    of :func:`geometry.params.save_design`) with their sizes and SHA-256;
-7. the inputs (the design TOML, the command line) and the software versions;
+7. the inputs (the design TOML, the command line), the software versions of every library
+   that computed a number and the git commit when run from a checkout;
 8. the predicted MRI artefact (:func:`sensor.artefact.prediction.predict`): field offsets
    near the surface, spin-echo shift, gradient-echo artefact extent, two figures.
+
+One hysteresis number throughout (:data:`HYSTERESIS_DEFINITION`): the predicted H of the
+strain-energy law. Every matplotlib figure is embedded as SVG and offered for download.
 
 Everything is computed before the first file is written, so a design that fails to solve,
 read or render leaves nothing behind. Lengths mm, forces N, energies mJ.
@@ -57,6 +63,32 @@ RENDER_WINDOW_PX = (1200, 900)
 INTENSITY_TOLERANCE_PCT = 1.0
 
 _CONTINUUM = "sensor.mechanics.continuum"
+
+#: The one hysteresis number of the report and what it is.
+HYSTERESIS_DEFINITION = (
+    "H: the widest gap between the loading and unloading output travel at equal force over the "
+    "full-scale travel (thesis eq 87), predicted from the strain energy at full scale by the "
+    "strain-energy law H = c × SE")
+
+
+@dataclass(frozen=True)
+class RuleRow:
+    """One feasibility rule as the report shows it (formatted): verdict, margin, message."""
+
+    rule: str
+    verdict: str
+    margin: str
+    message: str
+
+
+@dataclass(frozen=True)
+class PeakStressRow:
+    """One hinge's peak stress at full scale against the allowable (formatted)."""
+
+    hinge: str
+    peak_MPa: str
+    utilisation_pct: str
+    verdict: str
 
 
 @dataclass(frozen=True)
@@ -98,6 +130,7 @@ class Verification:
     hinge_rows: tuple[HingeStressRow, ...] = ()
     method: str = ""
     data: dict | None = None
+    figure: EmbeddedFigure | None = None
 
 
 @dataclass(frozen=True)
@@ -156,8 +189,8 @@ def solve_rows(result, qualifiers, a_kin: float, law) -> list[Quantity]:
         Quantity("sensitivity", f"{q.sensitivity_mm_per_N:.4f}", "mm/N", "1 / k_out"),
         Quantity("range (input force at the target travel)", f"{q.range_N:.4f}", "N"),
         Quantity("strain energy SE", f"{q.strain_energy_mJ:.4f}", "mJ"),
-        Quantity("predicted hysteresis H", f"{100 * q.hysteresis:.3f}", "% FS",
-                 f"{law.h_per_mJ:.4f} per mJ, calibrated on the {law.calibrated_on} specimen"),
+        Quantity("hysteresis H (predicted)", f"{100 * q.hysteresis:.3f}", "% FS",
+                 f"c = {law.h_per_mJ:.4f} per mJ, calibrated on the {law.calibrated_on} specimen"),
         Quantity("quality sensitivity / H", f"{q.quality_mm_per_N:.3f}", "mm/N",
                  "thesis Table 6 “SNR”"),
         Quantity("input travel", f"{r.input_travel_mm:.4f}", "mm"),
@@ -171,7 +204,7 @@ def datasheet_rows(ds, cross) -> list[Quantity]:
     """The datasheet, as ``dacm sensor`` prints it."""
     return [
         Quantity("range", f"0 – {ds.range_N:.3f}", "N",
-                 f"mirror travel {ds.full_scale_travel_mm:g} mm, gap {ds.gap_max_mm:.2f} → "
+                 f"mirror travel {ds.target_output_mm:g} mm, gap {ds.gap_max_mm:.2f} → "
                  f"{ds.gap_min_mm:.2f} mm"),
         Quantity("output span", f"{ds.span_V:.4f}", "V"),
         Quantity("sensitivity", f"{ds.sensitivity_mV_per_N:.2f}", "mV/N", "least-squares line"),
@@ -181,14 +214,31 @@ def datasheet_rows(ds, cross) -> list[Quantity]:
                  f"at {ds.sample_rate_Hz:g} S/s (bandwidth {ds.sample_rate_Hz / 2:g} Hz)"),
         Quantity("ADC", f"{ds.adc_bits}-bit, step {ds.adc_step_V * 1e6:.0f}", "µV"),
         Quantity("nonlinearity", f"{ds.nonlinearity_pct:.2f}", "% FS", "mean branch against the line"),
-        Quantity("hysteresis", f"{ds.hysteresis_pct:.2f}", "% FS",
-                 f"eq 87 on volts; mechanical H {ds.hysteresis_mechanical_pct:.2f} % from "
-                 f"SE {ds.strain_energy_mJ:.3f} mJ"),
-        Quantity("quality", f"{ds.quality_mV_per_N:.0f}", "mV/N", "sensitivity / hysteresis"),
+        Quantity("hysteresis H (predicted)", f"{ds.hysteresis_mechanical_pct:.3f}", "% FS",
+                 f"as in section 2, from SE {ds.strain_energy_mJ:.3f} mJ"),
         Quantity("cross-axis", f"{cross.ratio_pct:.3f}", "%",
                  f"mirror travel under {cross.imposed_travel_mm:.3f} mm lateral vs axial input "
                  f"travel; tilt {cross.tilt_deg:+.2f}°; thesis 1.66 % (delrin)"),
     ]
+
+
+def rule_rows(report) -> list[RuleRow]:
+    """The feasibility rules of :func:`geometry.checks.check_design` with their margins."""
+    return [RuleRow(r.rule, "pass" if r.ok else "FAIL",
+                    f"{r.margin:+.3f} {r.unit}" if math.isfinite(r.margin) else "", r.message)
+            for r in report.results]
+
+
+def peak_stress_rows(stresses: dict, allowable_MPa: float) -> list[PeakStressRow]:
+    """Each hinge's peak stress (root concentration included) against the allowable."""
+    return [PeakStressRow(str(h), f"{s.peak_MPa:.1f}", f"{100 * s.peak_MPa / allowable_MPa:.0f}",
+                          "within" if s.peak_MPa <= allowable_MPa else "OVER")
+            for h, s in sorted(stresses.items())]
+
+
+def svg_figure(fig, download: str, alt: str, caption: str) -> EmbeddedFigure:
+    """A matplotlib figure embedded as SVG and offered for download as ``download``."""
+    return EmbeddedFigure(figure_data_uri(fig), alt, caption, download)
 
 
 def key_rows(q, ds, verification: Verification) -> list[Quantity]:
@@ -202,7 +252,7 @@ def key_rows(q, ds, verification: Verification) -> list[Quantity]:
             Quantity("amplification", f"{q.amplification:.3f}", ""),
             Quantity("sensitivity", f"{ds.sensitivity_mV_per_N:.1f}", "mV/N"),
             Quantity("resolution", f"{ds.resolution_N * 1e3:.2f}", "mN RMS"),
-            Quantity("hysteresis", f"{ds.hysteresis_pct:.2f}", "% FS"),
+            Quantity("hysteresis H (predicted)", f"{100 * q.hysteresis:.2f}", "% FS"),
             Quantity("FE check", checked, "")]
 
 
@@ -254,6 +304,21 @@ def verification_from_dict(data: dict) -> Verification:
     return Verification("run", rows=tuple(rows), hinge_rows=hinge_rows, method=method, data=data)
 
 
+def stress_field(design: Design, v) -> EmbeddedFigure:
+    """The FE stress field of a verification (``dacm verify``'s figure), the colour scale
+    to 1.2 x the allowable, which the colour bar marks."""
+    from sensor.mechanics.plots import stress_field_figure
+
+    title = (f"{design.name}: continuum FE at {v.fe.output_travel_mm:g} mm output; "
+             "labels: hinge: stress one t inside the neck (MPa)")
+    return svg_figure(
+        stress_field_figure(v.fe, design, title, v.fe_summary["hinge_stress_MPa"]), f"{design.name}-stress-field.svg",
+        f"FE stress field of {design.name}",
+        f"Von Mises stress of the continuum FE on the deformed mesh, with a zoom on the most "
+        f"stressed hinge; the colour scale runs to 1.2 × the allowable "
+        f"({design.material.allowable_stress_MPa:g} MPa, the red mark on the colour bar).")
+
+
 def continuum_verification(design: Design, target_output_mm: float, run: bool = True) -> Verification:
     """Run the continuum verification if the tool has it (``sensor.mechanics.continuum``
     with ``verify_design`` and ``verification_to_dict``), else say why it was not run."""
@@ -267,8 +332,8 @@ def continuum_verification(design: Design, target_output_mm: float, run: bool = 
         return Verification("not run", f"this version of dacm has no continuum model ({_CONTINUUM})")
     except ImportError:
         return Verification("not run", f"{_CONTINUUM} has no verify_design / verification_to_dict")
-    return verification_from_dict(
-        verification_to_dict(verify_design(design, target_output_mm=target_output_mm)))
+    v = verify_design(design, target_output_mm=target_output_mm)
+    return dataclasses.replace(verification_from_dict(verification_to_dict(v)), figure=stress_field(design, v))
 
 
 # --- MRI artefact (sensor.artefact): section 8 ---------------------------------------------
@@ -335,7 +400,7 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
     naming it, before anything is computed or written). ``command`` is the command line
     stated among the inputs.
     """
-    from geometry.checks import assert_feasible
+    from geometry.checks import assert_feasible, check_design
     from geometry.drawing import profile_figure
     from geometry.export import export_design
     from geometry.layout import kinematic_amplification, make_layout, make_parts
@@ -343,8 +408,10 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
     from geometry.topology import build_beam_model
     from sensor.errors import SensorInputError
     from sensor.mechanics.hysteresis import DEFAULT_LAW
+    from sensor.mechanics.plots import hinge_stress_figure
     from sensor.mechanics.qualifiers import qualify
     from sensor.mechanics.solver import solve
+    from sensor.mechanics.stress import hinge_stresses, stress_check
     from sensor.readout.datasheet import cross_axis, datasheet
     from sensor.readout.plots import calibration_figure, intensity_figure
     from sensor.readout.sensor_model import build_sensor
@@ -363,20 +430,30 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
     r = solve(model, target_output_mm=target_output_mm)
     q = qualify(r, DEFAULT_LAW)
     a_kin = kinematic_amplification(design.phi1_deg, design.phi2_deg)
-    sensor = build_sensor(design, full_scale_travel_mm=target_output_mm)
+    sensor = build_sensor(design, target_output_mm=target_output_mm)
     ds = datasheet(sensor, material=design.material.name)
     cross = cross_axis(design, sensor.input_travel_mm)
+    stresses = hinge_stresses(model, r)
+    stress = stress_check(design, model, r)
+    allowable = design.material.allowable_stress_MPa
     figures = {
-        "profile": EmbeddedFigure(
-            figure_data_uri(profile_figure(design)), f"profile of {design.name}",
+        "profile": svg_figure(
+            profile_figure(design), f"{design.name}-profile.svg", f"profile of {design.name}",
             "The profile as cut (cf. thesis Figure 48): hinge numbers in red, the input force "
             "on the top plate, the mirror on the output platform facing the fiber."),
-        "calibration": EmbeddedFigure(
-            figure_data_uri(calibration_figure(sensor, ds)), f"calibration cycle of {design.name}",
+        "stress": svg_figure(
+            hinge_stress_figure(stresses, allowable, f"{design.name}: hinge peak stress at "
+                                f"{target_output_mm:g} mm output (full scale)"),
+            f"{design.name}-hinge-stress.svg", f"hinge peak stresses of {design.name}",
+            f"Each hinge's peak stress at full scale (beam model, root stress concentration "
+            f"included) against the allowable {allowable:g} MPa of {design.material.name} (red "
+            "line); bar colours on the stress field's scale."),
+        "calibration": svg_figure(
+            calibration_figure(sensor, ds), f"{design.name}-calibration.svg", f"calibration cycle of {design.name}",
             "A simulated loading–unloading calibration cycle, noise-free (cf. thesis Figures 43 "
             "and 45), and the error of the reading against the applied force."),
-        "intensity": EmbeddedFigure(
-            figure_data_uri(intensity_figure(sensor, ds, INTENSITY_TOLERANCE_PCT)),
+        "intensity": svg_figure(
+            intensity_figure(sensor, ds, INTENSITY_TOLERANCE_PCT), f"{design.name}-intensity.svg",
             f"intensity against gap for {design.name}",
             "Output voltage against the mirror–fiber gap (cf. thesis Figure 62), with the gap "
             "interval the sensor uses (red) and the widest interval within "
@@ -400,6 +477,9 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
         key_rows=key_rows(q, ds, verification),
         solve_rows=solve_rows(r, q, a_kin, DEFAULT_LAW),
         hinge_rotations=sorted(r.hinge_rotation_deg.items()),
+        rule_rows=rule_rows(check_design(design)), stress=stress,
+        peak_stress_rows=peak_stress_rows(stresses, allowable),
+        hysteresis_definition=HYSTERESIS_DEFINITION,
         datasheet_rows=datasheet_rows(ds, cross), figures=figures, verification=verification,
         files=files, toml_text=toml_path.read_text(), versions=versions,
         verify_limits=VERIFY_LIMITS_PCT, artefact=artefact,
@@ -408,6 +488,10 @@ def write_design_report(design: Design, out_dir: str | Path, *, target_output_mm
     summary = {
         "design": design.name, "report": str(path),
         "solve": _solve_summary(design, r, q, a_kin),
+        "feasibility": [{**dataclasses.asdict(rule), "margin": rule.margin if math.isfinite(rule.margin) else None}
+                        for rule in check_design(design).results],
+        "hinge_peak_stress_MPa": {str(h): s.peak_MPa for h, s in sorted(stresses.items())},
+        "allowable_stress_MPa": allowable,
         "datasheet": dataclasses.asdict(ds), "cross_axis": dataclasses.asdict(cross),
         "verification": ({"status": "run", **verification.data} if verification.data
                          else {"status": "not run", "reason": verification.reason}),

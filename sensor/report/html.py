@@ -40,8 +40,11 @@ IMAGE_TYPES = {"png": "image/png", "svg": "image/svg+xml", "jpeg": "image/jpeg"}
 #: style and embedded images (no scripts, no fonts, no network).
 CONTENT_SECURITY_POLICY = "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
 
-#: Libraries whose versions a report states beside the tool's own.
-REPORTED_LIBRARIES = ("numpy", "scipy", "matplotlib", "numba", "cadquery", "pyvista", "jinja2")
+#: Libraries whose versions a report states beside the tool's own: every one that computes
+#: a number or writes a file the reports show (solver, FE mesh and solve, CAD and its
+#: kernel, DXF, mesh check, rendering, DICOM, figures, the page).
+REPORTED_LIBRARIES = ("numpy", "scipy", "numba", "gmsh", "scikit-fem", "cadquery", "cadquery-ocp", "ezdxf",
+                      "trimesh", "pyvista", "vtk", "scikit-image", "pydicom", "matplotlib", "jinja2")
 
 
 @dataclass(frozen=True)
@@ -58,11 +61,13 @@ class Quantity:
 @dataclass(frozen=True)
 class EmbeddedFigure:
     """A picture in a report: ``src`` a ``data:`` URI, ``alt`` the text a screen reader
-    says, ``caption`` what the reader should see in it."""
+    says, ``caption`` what the reader should see in it; an SVG is offered for download as
+    ``download`` (a file name) when given."""
 
     src: str
     alt: str
     caption: str
+    download: str = ""
 
 
 @dataclass(frozen=True)
@@ -81,7 +86,7 @@ def image_data_uri(data: bytes, kind: str) -> str:
     return f"data:{IMAGE_TYPES[kind]};base64,{base64.b64encode(data).decode('ascii')}"
 
 
-def figure_data_uri(fig, kind: str = "svg", dpi: int = 110) -> str:
+def figure_data_uri(fig, kind: str = "svg", dpi: float | None = None) -> str:
     """A matplotlib ``Figure`` as a ``data:`` URI: ``svg`` (vector, text as paths so no
     font is needed) or ``png`` (``dpi`` pixels per inch)."""
     if kind not in ("svg", "png"):
@@ -100,10 +105,16 @@ def file_record(path: str | os.PathLike, root: str | os.PathLike) -> FileRecord:
 
 
 def software_versions(libraries: tuple[str, ...] | None = None) -> dict[str, str]:
-    """Versions of dacm, Python, the platform and ``libraries`` (default
-    :data:`REPORTED_LIBRARIES`; as installed, "not installed" for one that is absent)."""
-    out = {"dacm": importlib.metadata.version("dacm"), "python": platform.python_version(),
-           "platform": platform.platform()}
+    """Versions of dacm (and its git commit when run from a checkout), Python, the platform
+    and ``libraries`` (default :data:`REPORTED_LIBRARIES`; as installed, "not installed" for
+    one that is absent)."""
+    from geometry.provenance import git_commit, version
+
+    out = {"dacm": version()}
+    commit = git_commit()
+    if commit:
+        out["dacm git commit"] = commit
+    out |= {"python": platform.python_version(), "platform": platform.platform()}
     for name in REPORTED_LIBRARIES if libraries is None else libraries:
         try:
             out[name] = importlib.metadata.version(name)

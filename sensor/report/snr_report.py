@@ -196,7 +196,7 @@ def snr_report_context(pairs, panels, comparison, command: str) -> dict:
 
     first = pairs[0]
     figure = EmbeddedFigure(
-        figure_data_uri(pair_figure(panels), "png", dpi=90),
+        figure_data_uri(pair_figure(panels), "png"),
         "Images a and b and their difference a - b, with the regions of interest outlined",
         "a and b share one grey scale (0 to the brightest pixel, nothing saturated); a - b on "
         "+-4 robust standard deviations, so the phantom's edge is clipped. Each ROI has one "

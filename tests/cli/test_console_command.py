@@ -29,7 +29,7 @@ def test_output_and_files_are_complete_after_the_fast_exit(tmp_path):
     assert done.returncode == 0, done.stderr
     summary = json.loads(done.stdout)
     assert summary["cells"] == summary["computed_now"] == 8
-    assert [Path(f).name for f in summary["files"]][:2] == ["sweep.nc", "sweep.csv"]
+    assert [Path(f["path"]).name for f in summary["files"]][:2] == ["sweep.nc", "sweep.csv"]
     ds = load_dataset(tmp_path / "sweep.nc")
     assert ds["feasible"].shape == (2, 2, 2)
     assert (tmp_path / "sweep.csv").read_text().count("\n") > 8

@@ -20,8 +20,8 @@ def test_design_json_files_and_solve_reproduces_it(quick, tmp_path, capsys):
     assert main(["design", "--range", "3", "--hinge-max", "0.6", "--out", str(tmp_path), "--workers", "1",
                  "--draws", "20", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    for k in ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",
-              "strain_energy_mJ", "basis", "evaluations", "seconds", "tolerance"):
+    for k in ("design", "range_N", "hysteresis_fraction", "resolution_N", "amplification", "k_out_N_per_mm",
+              "strain_energy_mJ", "basis", "evaluations", "wall_s", "tolerance", "files"):
         assert k in out, k
     assert abs(out["range_N"] / 3 - 1) <= 0.01 and abs(out["basis"]["range_N"] / 3 - 1) <= 0.01
     for k in ("range_N_p5", "range_N_p50", "range_N_p95", "hysteresis_p10", "hysteresis_p50", "hysteresis_p90",
@@ -36,7 +36,7 @@ def test_design_json_files_and_solve_reproduces_it(quick, tmp_path, capsys):
     solved = json.loads(capsys.readouterr().out)
     for k in ("range_N", "amplification", "k_out_N_per_mm", "strain_energy_mJ"):
         assert solved[k] == pytest.approx(out[k], rel=1e-6), k
-    assert solved["hysteresis_predicted"] == pytest.approx(out["hysteresis"], rel=1e-6)
+    assert solved["hysteresis_fraction"] == pytest.approx(out["hysteresis_fraction"], rel=1e-6)
     sheet = json.loads((tmp_path / "design-datasheet.json").read_text())
     assert sheet["resolution_N"] == pytest.approx(out["resolution_N"])
 

@@ -1,6 +1,7 @@
 """``dacm export`` and ``dacm draw`` through the CLI entry point: files written, bad input
 reported in one line with exit status 2 and nothing left behind."""
 
+import hashlib
 import json
 
 import ezdxf
@@ -28,8 +29,10 @@ def test_export_json_prints_the_files_and_solve_reads_the_beam_model(tmp_path, d
                            "--beam-model", "--json")
     assert status == 0 and err == ""
     files = json.loads(out)
-    assert files == {"design": "sample-b", "kerf_mm": None,
-                     "files": {"json": str(tmp_path / "sample-b.json")}}
+    path = tmp_path / "sample-b.json"
+    assert files == {"design": "sample-b", "kerf_mm": None, "formats": ["json"],
+                     "files": [{"path": str(path), "bytes": path.stat().st_size,
+                                "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}]}
     by_model = json.loads(dacm("solve", "--model", str(tmp_path / "sample-b.json"), "--json")[1])
     by_design = json.loads(dacm("solve", "--preset", "sample-b", "--json")[1])
     assert by_model["amplification"] == by_design["amplification"]  # the same model, same solver

@@ -78,7 +78,7 @@ COMMANDS = {
     "solve": (_design_cases() + _numbers("--target-output", BAD_NUMBERS + ["31"])
               + _numbers("--target-force", BAD_NUMBERS) + _numbers("--increments", BAD_INTEGERS)
               + [["--model", ("json", m)] for m in MODELS], []),
-    "sensor": (_design_cases() + _numbers("--full-scale", BAD_NUMBERS) + _numbers("--sample-rate", BAD_NUMBERS)
+    "sensor": (_design_cases() + _numbers("--target-output", BAD_NUMBERS) + _numbers("--sample-rate", BAD_NUMBERS)
                + _numbers("--adc-bits", BAD_INTEGERS + ["99", "0"]) + _numbers("--na", BAD_NUMBERS + ["2"])
                + _numbers("--tolerance", BAD_NUMBERS) + [["--adc-range", "nan", "1"], ["--adc-range", "1", "inf"]]
                + [["--calibration", "foo"], ["--readout", "foo"], ["--optics-model", "foo"]],
@@ -91,7 +91,7 @@ COMMANDS = {
                 + [["no-such-file.csv"]], ["--calibrate", "--out", "OUT"]),
     "design": ([["--range", v] for v in BAD_NUMBERS + ["0", "1e6"]]
                + [["--range", "5"] + bad for bad in (
-                   _numbers("--travel", BAD_NUMBERS + ["31"]) + _numbers("--hinge-min", BAD_NUMBERS + ["0.01"])
+                   _numbers("--target-output", BAD_NUMBERS + ["31"]) + _numbers("--hinge-min", BAD_NUMBERS + ["0.01"])
                    + _numbers("--hinge-max", BAD_NUMBERS + ["50"]) + _numbers("--robust", BAD_NUMBERS)
                    + _numbers("--min-yield", BAD_NUMBERS + ["1.5"]) + _numbers("--workers", BAD_INTEGERS)
                    + [["--seed", "-1"], ["--scheduler", "foo"], ["--hinge-min", "1", "--hinge-max", "0.5"]])],

@@ -19,7 +19,7 @@ def test_json_names_the_units_as_the_text_does(tmp_path, dacm):
     np.savetxt(csv, np.c_[loop.force_N, loop.response], delimiter=",",
                header="force_N,displacement_mm", comments="")
     res = json.loads(dacm("measure", csv, "--preset", "sample-b-as-cut", "--json")[1])
-    assert set(res["measured"]) == {"kind", "max_force_N", "span_mm", "hysteresis",
+    assert set(res["measured"]) == {"kind", "max_force_N", "span_mm", "hysteresis_fraction",
                                     "sensitivity_mm_per_N", "nonlinearity_pct"}
     text = dacm("measure", csv, "--preset", "sample-b-as-cut")[1]
     row = next(line.split() for line in text.splitlines() if line.strip().startswith("sensitivity"))

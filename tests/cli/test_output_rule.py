@@ -111,7 +111,7 @@ def test_sweep_resume_finishes_a_checkpoint_and_is_no_replacement(dacm, tmp_path
     assert status == 0, err
     first = json.loads(out)
     assert first["computed_now"] == first["cells"] == 4
-    assert first["files"] == [str(tmp_path / n) for n in ("sweep.nc", "sweep.csv", "pareto-05-03.csv")]
+    assert [f["path"] for f in first["files"]] == [str(tmp_path / n) for n in ("sweep.nc", "sweep.csv", "pareto-05-03.csv")]
     before = xr.load_dataset(tmp_path / "sweep.nc", engine="h5netcdf")
 
     status, _, err = dacm("sweep", *grid, "--out", tmp_path, "--resume")

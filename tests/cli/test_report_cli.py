@@ -1,6 +1,7 @@
 """``dacm report``: the page and the files, --json, the output rule (--force), bad input."""
 
 import json
+from pathlib import Path
 
 from tests.conftest import assert_one_line_error
 
@@ -10,7 +11,8 @@ def test_report_writes_the_page_and_replaces_only_with_force(dacm, tmp_path):
     assert status == 0, err
     s = json.loads(out)
     assert s["report"] == str(tmp_path / "basis-report.html")
-    assert [f["name"] for f in s["files"]] == [f"basis.{x}" for x in ("dxf", "stl", "step", "json", "toml")]
+    assert [Path(f["path"]).name for f in s["files"]] == [f"basis.{x}" for x in ("dxf", "stl", "step", "json", "toml")] + [
+        "basis-report.html"]
     # the basis body is a symmetric hexagon: output travel = input travel (A = 1, A_kin = 1)
     assert abs(s["solve"]["amplification"] - 1.0) < 1e-6 and s["solve"]["A_kin"] == 1.0
     assert s["verification"]["status"] == "not run"

@@ -115,7 +115,7 @@ def test_materials_are_read_from_the_base():
     (dict(range_N=math.nan), "range_N = nan"),
     (dict(range_N=3.0, hinge_min_mm=0.5, hinge_max_mm=0.3), "hinge_max_mm = 0.3: must exceed hinge_min_mm"),
     (dict(range_N=3.0, hinge_min_mm=0.1), "min_feature_mm"),
-    (dict(range_N=3.0, travel_mm=1.5), "fiber_clearance_mm"),
+    (dict(range_N=3.0, target_output_mm=1.5), "fiber_clearance_mm"),
     (dict(range_N=3.0, pairs=((1, 8),)), "pairs"),
 ])
 def test_bad_problems_name_the_field(kw, fragment):

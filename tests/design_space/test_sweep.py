@@ -317,7 +317,7 @@ def test_cli_writes_dataset_csv_and_figures(tmp_path, capsys):
         "figure49.png", "hysteresis-vs-range.png", "ratio_quality.png", "equal_range_ratio_hysteresis.png"}
     ds = xr.open_dataset(tmp_path / "sweep.nc", engine="h5netcdf")
     assert "dacm" in ds.attrs["software"] and ds.attrs["target_output_mm"] == 1.0
-    assert set(ds["hinges"].values) == {"05-03", "03-03"}
+    assert set(ds["hinge_set"].values) == {"05-03", "03-03"}   # a CF label variable
     ds.close()
 
 

@@ -176,3 +176,26 @@ def test_unknown_format_and_output_folder(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(OSError, match="cannot create output folder"):
         export_design(DESIGNS["basis"], tmp_path / "file" / "dir", ["json"])
+
+
+def test_dxf_and_step_are_byte_identical_when_written_again(tmp_path):
+    """The SHA-256 a report records checks a rerun: nothing in the files depends on when,
+    how often (OCCT numbers products by a per-process counter) or in which process (ezdxf
+    orders classes by string hashes, which change with PYTHONHASHSEED) they were written."""
+    import os
+    import subprocess
+    import sys
+
+    first = export_design(preset("sample-b"), tmp_path / "a", formats=("dxf", "step"))
+    script = ("import sys; from geometry.export import export_design; from geometry.params import preset\n"
+              "for out in sys.argv[1:]: export_design(preset('sample-b'), out, formats=('dxf', 'step'))")
+    for seed in ("1", "2"):  # each process writes twice, seconds after the first write above
+        again = [tmp_path / f"{seed}-{k}" for k in (1, 2)]
+        subprocess.run([sys.executable, "-c", script, *map(str, again)], check=True,
+                       env={**os.environ, "PYTHONHASHSEED": seed})
+        for folder in again:
+            for path in first:
+                assert (folder / path.name).read_bytes() == path.read_bytes(), (seed, path.name)
+    step = first[1].read_text()
+    assert "FILE_NAME('sample-b','2000-01-01T00:00:00'" in step and "PRODUCT('sample-b','sample-b'" in step
+    assert not ezdxf.readfile(first[0]).audit().has_errors

@@ -49,6 +49,14 @@ def test_toml_round_trip(tmp_path):
         assert load_design(tmp_path / "d.toml") == d
 
 
+def test_toml_names_the_version_and_command_in_comments(tmp_path):
+    from geometry.provenance import command, version
+
+    save_design(preset("sample-a"), tmp_path / "d.toml")
+    head = (tmp_path / "d.toml").read_text().splitlines()[:2]
+    assert head == [f"# made by dacm {version()}", f"# command: {command()}"]
+
+
 def test_toml_errors_name_the_problem(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("phi1_deg = [\n")

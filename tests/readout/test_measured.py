@@ -67,9 +67,9 @@ def test_cli_calibrates_and_writes_a_design_every_command_reads(tmp_path, dacm):
     import json
     res = json.loads(out)
     assert res["calibration"]["E_MPa"] == pytest.approx(TRUE_E_MPA, rel=1e-3)
-    written = load_design(res["calibration"]["file"])
+    written = load_design(res["files"][0]["path"])
     assert written.material.E_MPa == pytest.approx(res["calibration"]["E_MPa"])
-    status, out, _ = dacm("solve", "--config", res["calibration"]["file"], "--json")
+    status, out, _ = dacm("solve", "--config", res["files"][0]["path"], "--json")
     assert status == 0
 
 

@@ -125,7 +125,7 @@ def test_readings_sit_on_adc_codes_and_the_gap_rule(sensors):
     step = s.readout.adc_step_V
     np.testing.assert_allclose(r.volts, s.readout.adc_min_V + r.counts * step, rtol=0, atol=1e-12)
     np.testing.assert_allclose(r.gap_mm, s.fiber_clearance_mm - r.travel_mm, atol=1e-15)
-    assert r.travel_mm[-1] == pytest.approx(s.full_scale_travel_mm, abs=1e-12)
+    assert r.travel_mm[-1] == pytest.approx(s.target_output_mm, abs=1e-12)
     # the noise-free reading is within half a code of the analog voltage
     assert np.all(np.abs(r.volts - s.noise_free_volts(r.travel_mm)) <= step / 2 + 1e-12)
 
@@ -274,7 +274,7 @@ def test_bad_readout_settings(kwargs, match):
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    ({"full_scale_travel_mm": 1.5}, "full_scale_travel_mm = 1.5: must be in .0, fiber_clearance"),
+    ({"target_output_mm": 1.5}, "target_output_mm = 1.5: must be in .0, fiber_clearance"),
     ({"overload": "ignore"}, "overload = 'ignore'"),
     ({"calibration": "table"}, "calibration = 'table'"),
     ({"readout": Readout(adc_min_V=0.0, adc_max_V=0.5)}, "must fit the ADC range"),
@@ -295,14 +295,14 @@ def test_cli_json_and_plots(tmp_path, capsys):
     assert main(["sensor", "--preset", "sample-a", "--json", "--out", str(tmp_path / "o")]) == 0
     out = json.loads(capsys.readouterr().out)
     for key in ("range_N", "sensitivity_mV_per_N", "resolution_N", "nonlinearity_pct",
-                "hysteresis_pct"):
+                "output_hysteresis_fraction", "hysteresis_fraction"):
         assert math.isfinite(out[key]) and out[key] > 0
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == [
         "sample-a-calibration.png", "sample-a-intensity.png", "sensor-manifest.json"]
 
 
 @pytest.mark.parametrize("argv", [
-    ["--adc-bits", "0"], ["--full-scale", "2"], ["--na", "1.5"], ["--sample-rate", "-1"],
+    ["--adc-bits", "0"], ["--target-output", "2"], ["--na", "1.5"], ["--sample-rate", "-1"],
     ["--calibration", "table"], ["--preset", "nope"], ["--optics-model", "wave"],
 ])
 def test_cli_bad_input_exits_2_with_one_line_and_no_file(tmp_path, capsys, argv):

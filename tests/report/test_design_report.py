@@ -57,6 +57,38 @@ def test_numbers_are_those_of_the_solver_and_the_datasheet(report):
         assert f'<td class="num">{text}</td>' in page, text
 
 
+def test_rules_stresses_one_hysteresis_versions_and_commit(report):
+    """The feasibility rules with their margins (as check_design gives them), every hinge's
+    peak stress against the allowable (as hinge_stresses gives it), one hysteresis number
+    (the predicted H, nowhere the datasheet's H of the volts), the versions of the libraries
+    that computed numbers, and the git commit (the tests run from a checkout)."""
+    from geometry.checks import check_design
+    from geometry.provenance import git_commit
+    from sensor.mechanics.stress import hinge_stresses
+
+    design, _, rep = report
+    page, s = rep.path.read_text(), rep.summary
+    for rule in check_design(design).results:
+        assert f"<td>{rule.rule}</td>" in page
+        if rule.margin == rule.margin:  # not NaN
+            assert f"{rule.margin:+.3f} {rule.unit}" in page, rule.rule
+    model = build_beam_model(design)
+    stresses = hinge_stresses(model, solve(model, target_output_mm=1.0))
+    assert s["hinge_peak_stress_MPa"] == {str(h): v.peak_MPa for h, v in stresses.items()}
+    assert s["allowable_stress_MPa"] == 36.0
+    for v in stresses.values():
+        assert f'<td class="num">{v.peak_MPa:.1f}</td>' in page
+    worst = max(v.peak_MPa for v in stresses.values())
+    assert f"{100 * worst / 36:.0f}</td>" in page  # the most stressed hinge, % of 36 MPa
+    h = 100 * s["solve"]["hysteresis"]
+    assert f"{h:.2f}" in page and f"{s['datasheet']['hysteresis_pct']:.2f}" not in page
+    assert page.count("hysteresis H (predicted)") == 3   # key figure, solve table, datasheet
+    for lib in ("gmsh", "scikit-fem", "numba", "cadquery-ocp", "ezdxf"):
+        assert f"<td>{lib}</td>" in page
+    commit = git_commit()
+    assert commit and s["software"]["dacm git commit"] == commit and commit in page
+
+
 def test_files_are_listed_with_their_true_size_and_sha256(report):
     design, out, rep = report
     assert {f.name for f in rep.files} == {f"sample-b.{x}" for x in ("dxf", "stl", "step", "json", "toml")}
@@ -70,17 +102,21 @@ def test_files_are_listed_with_their_true_size_and_sha256(report):
 
 
 def test_page_is_self_contained_with_every_picture_readable(report):
-    """Nothing but inline style and data: images; every anchor link lands on a section; the
-    six pictures decode (PNG not blank, SVG well-formed)."""
+    """Nothing but inline style and data: images; every anchor link lands on a section, every
+    other link downloads the SVG of the figure it sits under; the seven pictures decode (PNG
+    not blank, SVG well-formed)."""
     _, _, rep = report
     tags = start_tags(rep.path.read_text())
     names = {t for t, _ in tags}
     assert not names & {"script", "link", "iframe", "object", "embed", "base"}
     ids = {a["id"] for _, a in tags if "id" in a}
-    hrefs = [a["href"] for t, a in tags if "href" in a]
+    hrefs = [a["href"] for t, a in tags if "href" in a and "download" not in a]
     assert hrefs and all(h.startswith("#") and h[1:] in ids for h in hrefs), hrefs
     srcs = [a["src"] for t, a in tags if t == "img"]
-    assert len(srcs) == 6
+    assert len(srcs) == 7
+    downloads = {a["download"]: a["href"] for t, a in tags if "download" in a}
+    assert sorted(downloads) == [f"sample-b-{n}.svg" for n in ("calibration", "hinge-stress", "intensity", "profile")]
+    assert set(downloads.values()) <= set(srcs)
     for src in srcs:
         head, data = src.split(",", 1)
         raw = base64.b64decode(data, validate=True)
@@ -102,7 +138,7 @@ def test_page_opens_in_a_real_browser(report, tmp_path):
     ink = np.mean(img.min(axis=2) < 200)            # fraction of pixels that are not paper
     assert 0.02 < ink < 0.9, ink
     assert seen.console == []
-    assert len(seen.images) == 6
+    assert len(seen.images) == 7
     for complete, width, height, src in seen.images:
         assert complete and width > 0 and height > 0, src
     assert elapsed < 20, f"browser check took {elapsed:.1f} s"
@@ -121,7 +157,7 @@ def test_the_browser_check_sees_a_broken_and_a_blocked_image(report, tmp_path):
     page.write_text(spoiled)
     seen = open_in_browser(page, tmp_path / "browser")
     widths = [w for _, w, _, _ in seen.images]
-    assert len(widths) == 7 and widths[0] == 0 and widths[-1] == 0 and all(widths[1:6])
+    assert len(widths) == 8 and widths[0] == 0 and widths[-1] == 0 and all(widths[1:7])
     assert any("example.invalid" in line and "Content Security Policy" in line
                for line in seen.console), seen.console
 
@@ -164,7 +200,7 @@ def test_verification_verdicts_use_the_design_limits():
     assert "|error| ≤ 1.5 % on A" in page and "plane stress, linear" in page
     assert [(h.hinge, h.fe_MPa, h.beam_MPa) for h in v.hinge_rows] == [("1", "7.81", "7.78"),
                                                                        ("9", "21.90", "22.30")]
-    q = SimpleNamespace(range_N=1.0, amplification=2.0)
+    q = SimpleNamespace(range_N=1.0, amplification=2.0, hysteresis=0.01)
     ds = SimpleNamespace(sensitivity_mV_per_N=1.0, resolution_N=1e-3, hysteresis_pct=1.0)
     assert key_rows(q, ds, v)[-1].value == "disagrees"
     assert key_rows(q, ds, verification_from_dict(_verification_dict(1.49, -2.99)))[-1].value == "agrees"
