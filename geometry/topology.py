@@ -65,7 +65,7 @@ ROOT_BODY_DEPTHS = 0.56
 #: A root fillet widens the neck faster than the bending stress can spread into it (plane
 #: sections do not stay plane where the section grows steeply): each side's fillet counts
 #: up to ``FILLET_SPREAD_SLOPE`` x the distance from where it meets the neck (a load-spread
-#: angle of about 16 deg), the rest of the arc carries little.
+#: angle of about 15 deg), the rest of the arc carries little.
 FILLET_SPREAD_SLOPE = 0.26
 #: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
 #: points and taken linear between them: the flexibility integrals of a quarter circle
