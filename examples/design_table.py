@@ -47,7 +47,7 @@ def _angles(d) -> str:
 
 def _cell(a: dict) -> str:
     t = a["tolerance"]
-    return (f"{a['angles']}, {min(a['hinges_mm']):.2f}-{max(a['hinges_mm']):.2f} mm: H {t['hysteresis_p50']:.4f}, "
+    return (f"{a['angles']}, {min(a['hinges_mm']):.2f}-{max(a['hinges_mm']):.2f} mm: H {t['hysteresis_fraction_p50']:.4f}, "
             f"range {t['range_N_p5']:.2f}-{t['range_N_p95']:.2f} N, P(stress) {100 * t['p_over_stress']:.0f} %")
 
 

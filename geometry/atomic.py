@@ -135,7 +135,7 @@ def write_error(target: str | os.PathLike, code: int, detail: str = "") -> Write
                             + (f" ({detail})" if detail else ""))
 
 
-def _cut_short_errno(path: Path) -> int:
+def cut_short_errno(path: Path) -> int:
     """Why a file stopped early: the file-size limit (EFBIG), a full disk (ENOSPC) or EIO."""
     size = path.stat().st_size
     soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
@@ -196,7 +196,7 @@ def check_complete(path: Path, target: Path | None = None) -> None:
     target = path if target is None else target
     check = COMPLETE.get(target.suffix.lower())
     if check is not None and not check(path):
-        raise write_error(target, _cut_short_errno(path),
+        raise write_error(target, cut_short_errno(path),
                           f"the file stopped at {path.stat().st_size} bytes, before its end")
 
 

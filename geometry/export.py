@@ -9,6 +9,8 @@ builds and checks every file's content, and only then writes them through
 from __future__ import annotations
 
 import contextlib
+import errno
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -17,7 +19,7 @@ import ezdxf
 import numpy as np
 import trimesh
 
-from geometry.atomic import atomic_path
+from geometry.atomic import atomic_path, cut_short_errno
 from geometry.cad import (
     extrude,
     face_loops,
@@ -176,7 +178,9 @@ def _save_step(named: tuple[str, cq.Solid], tmp: Path) -> None:
     header.SetName(TCollection_HAsciiString(name))
     header.SetTimeStamp(TCollection_HAsciiString(FIXED_TIMESTAMP))
     if writer.Write(str(tmp)) != IFSelect_ReturnStatus.IFSelect_RetDone:
-        raise OSError(f"could not write STEP file {tmp}")
+        # OCCT says only that it failed: the file's end tells why (size limit, full disk)
+        code = cut_short_errno(Path(tmp)) if Path(tmp).exists() else errno.EIO
+        raise OSError(code, os.strerror(code))
 
 
 def _save_text(text: str, tmp: Path) -> None:

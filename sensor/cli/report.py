@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     report.summary["report"] = str(path)
     if args.json:
         print_json({k: v for k, v in report.summary.items() if k != "files"},
-                   [args.out / f.name for f in report.files] + [report.path])
+                   [args.out / f.name for f in report.files] + [path])
         return 0
     s, v = report.summary["solve"], report.summary["verification"]
     print(f"{design.name}: A = {s['amplification']:.4f}, range {s['range_N']:.4f} N, "

@@ -299,8 +299,11 @@ def load_dataset(path: Path) -> xr.Dataset:
     """Read a sweep dataset written by :func:`save_dataset` (fully into memory)."""
     with xr.open_dataset(path, engine="h5netcdf") as f:
         ds = f.load()
-    labels = ds[HINGE_LABEL]
-    ds = ds.drop_vars(HINGE_LABEL).assign_coords(hinges=("hinges", labels.values.astype(str), labels.attrs))
+    if HINGE_LABEL in ds.variables:  # as save_dataset writes it (CF: the sets as a label variable)
+        labels = ds[HINGE_LABEL]
+        ds = ds.drop_vars(HINGE_LABEL).assign_coords(hinges=("hinges", labels.values.astype(str), labels.attrs))
+    else:  # a dataset written by xarray as it is held in memory
+        ds = ds.assign_coords(hinges=ds["hinges"].values.astype(str))
     for k in ("reason", "basis_reason"):
         ds[k] = ds[k].astype(object)
     for k in FLAGS:

@@ -38,9 +38,9 @@ class Tolerance:
     range_N_p5: float
     range_N_p50: float
     range_N_p95: float
-    hysteresis_p10: float
-    hysteresis_p50: float
-    hysteresis_p90: float
+    hysteresis_fraction_p10: float
+    hysteresis_fraction_p50: float
+    hysteresis_fraction_p90: float
     p_over_stress: float
     yield_fraction: float
     range_sensitivity_N_per_0p01mm: dict
@@ -109,7 +109,7 @@ def tolerance_text(t: Tolerance) -> list[str]:
     return [f"as cut ({t.process['name']}: hinges drawn {t.process['offset_mm']:+.3f} mm, SD {t.process['sd_mm']:g} mm; "
             f"{t.draws} draws, seed {t.seed}):",
             f"  range {t.range_N_p5:.3f} / {t.range_N_p50:.3f} / {t.range_N_p95:.3f} N (5/50/95 %), "
-            f"H {t.hysteresis_p10:.4f} / {t.hysteresis_p50:.4f} / {t.hysteresis_p90:.4f} (10/50/90 %)",
+            f"H {t.hysteresis_fraction_p10:.4f} / {t.hysteresis_fraction_p50:.4f} / {t.hysteresis_fraction_p90:.4f} (10/50/90 %)",
             f"  P(stress > allowable) {100 * t.p_over_stress:.1f} %, yield {100 * t.yield_fraction:.1f} % "
             f"(every hinge >= min_feature_mm)",
             f"  range per 0.01 mm of hinge pair, N: {sens}"]

@@ -24,7 +24,7 @@ def test_design_json_files_and_solve_reproduces_it(quick, tmp_path, capsys):
               "strain_energy_mJ", "basis", "evaluations", "wall_s", "tolerance", "files"):
         assert k in out, k
     assert abs(out["range_N"] / 3 - 1) <= 0.01 and abs(out["basis"]["range_N"] / 3 - 1) <= 0.01
-    for k in ("range_N_p5", "range_N_p50", "range_N_p95", "hysteresis_p10", "hysteresis_p50", "hysteresis_p90",
+    for k in ("range_N_p5", "range_N_p50", "range_N_p95", "hysteresis_fraction_p10", "hysteresis_fraction_p50", "hysteresis_fraction_p90",
               "p_over_stress", "yield_fraction", "range_sensitivity_N_per_0p01mm"):
         assert k in out["tolerance"], k
     tol = json.loads((tmp_path / "design-tolerance.json").read_text())["tolerance"]

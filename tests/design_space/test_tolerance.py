@@ -66,4 +66,4 @@ def test_robust_design_keeps_its_chance_constraints_on_fresh_draws():
     assert fresh.p_over_stress <= STRESS_PROBABILITY + 0.014
     assert fresh.range_N_p5 >= (1 - BAND - 0.01) * 5 and fresh.range_N_p95 <= (1 + BAND + 0.01) * 5
     assert fresh.yield_fraction >= 0.9
-    assert fresh.hysteresis_p50 >= tolerance(nominal, draws=1000, seed=99).hysteresis_p50
+    assert fresh.hysteresis_fraction_p50 >= tolerance(nominal, draws=1000, seed=99).hysteresis_fraction_p50
