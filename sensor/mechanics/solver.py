@@ -342,16 +342,40 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     if not cols:
         return C, bow
     members = topo.flex[cols]
-    # members may have different numbers of stations (a split member's pieces): pad with
-    # zero-length segments at the end, which add nothing to the integrals
-    k_max = max(len(m.profile_mm[k]) for m in models for k in members)
-    st = np.array([[np.pad(m.profile_mm[k], ((0, k_max - len(m.profile_mm[k])), (0, 0)), mode="edge")
-                    for k in members] for m in models])                         # (B, h, k, 2)
-    st[..., 0] *= (L0[:, cols] / st[..., -1, 0])[..., None]
-    C[:, cols] = profile_flexibility(st, b[:, cols], E, G)
-    with np.errstate(invalid="ignore", divide="ignore"):  # padded zero-length segments
-        bow[:, cols] = np.nan_to_num(profile_bowing(st))
+    # the integrals depend on the profile alone (a sweep's cells share a few): each distinct
+    # profile is integrated once, then scaled by each design's E, G and depth
+    per = np.array([[_profile_sections(m.profile_mm[k]) for k in members] for m in models])  # (B, h, 7)
+    scale = (L0[:, cols] / np.array([[m.profile_mm[k][-1, 0] for k in members] for m in models]))
+    inv_t, inv_t3, arm1, arm2 = (per[..., i] for i in range(4))
+    bE, bG = E * b[:, cols], G * b[:, cols]
+    bending = 12.0 / bE
+    Cp = np.zeros(C[:, cols].shape)
+    Cp[..., 0, 0] = scale * inv_t / bE
+    Cp[..., 1, 1] = bending * scale**3 * arm2 + SHEAR_FORM_FACTOR * scale * inv_t / bG
+    Cp[..., 1, 2] = Cp[..., 2, 1] = bending * scale**2 * arm1
+    Cp[..., 2, 2] = bending * scale * inv_t3
+    C[:, cols] = Cp
+    bow[:, cols] = per[..., 4:] * scale[..., None]
     return C, bow
+
+
+_SECTIONS: dict = {}
+
+
+def _profile_sections(profile: np.ndarray) -> np.ndarray:
+    """(int ds/t, int ds/t^3, int (L-s) ds/t^3, int (L-s)^2 ds/t^3, bowing p11, p12, p22) of
+    one thickness profile (mm; :func:`profile_flexibility` and :func:`profile_bowing` at unit
+    E b), cached by its bytes."""
+    key = profile.tobytes()
+    out = _SECTIONS.get(key)
+    if out is None:
+        if len(_SECTIONS) > 100_000:
+            _SECTIONS.clear()
+        C = profile_flexibility(profile, 1.0, 1.0, np.inf)
+        with np.errstate(invalid="ignore", divide="ignore"):  # zero-length segments
+            bow = np.nan_to_num(profile_bowing(profile))
+        out = _SECTIONS[key] = np.array([C[0, 0], C[2, 2] / 12.0, C[1, 2] / 12.0, C[1, 1] / 12.0, *bow])
+    return out
 
 
 # --- results ---------------------------------------------------------------------------------
