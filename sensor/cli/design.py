@@ -6,15 +6,12 @@ tolerance report as cut (:mod:`sensor.design_space.tolerance`), optionally the r
 from __future__ import annotations
 
 import argparse
-import json
 
 from sensor.cli.output import add_output_arguments, claim, print_json, staged
 from sensor.cli.progress import add_quiet_argument, busy
+from sensor.design_space.design_files import FILES, body_lines, write_design_files
 
 #: The files written to --out (basis.toml when a basis body reaches the range).
-FILES = ("design.toml", "design-datasheet.json", "design-tolerance.json", "design-profile.png",
-         "design-drawing.svg", "design-drawing.png", "design.dxf", "basis.toml")
-#: Library field -> flag, for the one-line errors.
 FLAGS = {"range_N": "--range", "travel_mm": "--travel", "hinge_min_mm": "--hinge-min",
          "hinge_max_mm": "--hinge-max", "min_yield": "--min-yield", "seed": "--seed", "kerf": "--kerf",
          "draws": "--draws"}
@@ -122,7 +119,10 @@ def run(args: argparse.Namespace) -> int:
     tol = rob.tolerance if rob else nominal_tol
     ours = describe(design, problem)
     theirs = None if basis is None else describe(basis.design, basis_problem)
-    paths = _write(args, design, basis, ours, tol)
+    with staged(args) as stage:
+        names = write_design_files(stage, design, None if basis is None else basis.design, ours["datasheet"],
+                                   tol.to_dict(), args.kerf)
+    paths = {name: args.out / name for name in names}
     # the written files, read back, must keep every rule
     # (the robust design's drawn range is not N: its parts' median is; it keeps the rules)
     for path, prob in ((paths["design.toml"], problem), (paths.get("basis.toml"), basis_problem)):
@@ -158,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
     if theirs:
         rows.append(("basis", theirs))
     for label, d in rows:
-        _print_body(label, d)
+        print("\n".join(body_lines(label, d)))
     if theirs:
         print(f"  DACM / basis: H {ours['hysteresis'] / theirs['hysteresis']:.3f} (1/A = {1 / ours['amplification']:.3f}), "
               f"resolution {ours['resolution_N'] / theirs['resolution_N']:.3f}")
@@ -177,49 +177,6 @@ def run(args: argparse.Namespace) -> int:
     for p in paths.values():
         print(f"wrote {p}")
     return 0
-
-
-def _print_body(label: str, d: dict) -> None:
-    from geometry.params import design_from_dict
-
-    f = d["design"]
-    used = design_from_dict(f).used_thickness_mm
-    angles = f"phi1 = {f['phi1_deg']:.2f}" + (f", phi2 = {f['phi2_deg']:.2f}" if "phi2_deg" in f else "")
-    print(f"  {label:<12} {angles} deg, hinges {' '.join(f'{t:.4f}' for t in used)} mm")
-    print(f"               range {d['range_N']:.4f} N, H = {d['hysteresis']:.4f}, resolution {1e3 * d['resolution_N']:.3f} mN, "
-          f"A = {d['amplification']:.3f}, k_out {d['k_out_N_per_mm']:.3f} N/mm, SE {d['strain_energy_mJ']:.4f} mJ, "
-          f"stress {d['stress_utilisation']:.3f} x allowable")
-
-
-def _write(args, design, basis, ours: dict, tol) -> dict:
-    """Write every file as one set (staged in --out, checked, then moved into place, see
-    sensor.cli.output.staged); {name: final path}."""
-    import shutil
-
-    from geometry.atomic import atomic_path, save_figure
-    from geometry.drawing import dimensioned_figure, profile_figure
-    from geometry.export import export_design
-    from geometry.params import save_design
-
-    names = [name for name in FILES if name != "basis.toml" or basis is not None]
-    with staged(args) as stage:
-        save_design(design, stage / "design.toml")
-        with atomic_path(stage / "design-datasheet.json") as tmp:
-            tmp.write_text(json.dumps(ours["datasheet"], indent=1))
-        with atomic_path(stage / "design-tolerance.json") as tmp:
-            tmp.write_text(json.dumps({"design": design.name, "tolerance": tol.to_dict()}, indent=1))
-        save_figure(profile_figure(design), stage / "design-profile.png", dpi=150)
-        fig = dimensioned_figure(design, args.kerf)
-        save_figure(fig, stage / "design-drawing.svg")
-        save_figure(fig, stage / "design-drawing.png", dpi=150)
-        dxf_dir = stage / "dxf"
-        dxf_dir.mkdir()
-        (dxf,) = export_design(design, dxf_dir, ["dxf"], kerf_mm=args.kerf or None)   # 0: the drawing
-        shutil.move(dxf, stage / "design.dxf")
-        dxf_dir.rmdir()
-        if basis is not None:
-            save_design(basis.design, stage / "basis.toml")
-    return {name: args.out / name for name in names}
 
 
 def _flagged(message: str) -> str:

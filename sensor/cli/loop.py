@@ -207,36 +207,12 @@ def _status_line(m: dict) -> str:
 
 def _run_study(args) -> dict:
     from geometry.atomic import atomic_path
-    from sensor.pneumatic import plots
-    from sensor.pneumatic import studies as st
-    from sensor.pneumatic import verdicts as vd
     from sensor.pneumatic.loop_metrics import SETTLING_RULE
+    from sensor.pneumatic.study_report import run_study
 
     kw = {"segments": args.segments, **({} if args.duration is None else {"duration_s": args.duration})}
     with counting(f"loop --study {args.study}", args.quiet) as progress:
-        if args.study == "observer":
-            res = st.observer_study(progress=progress, **kw)
-            text, out = vd.observer_tables(res), {"experiments": res["experiments"], "switch_on": res["switch_on"],
-                                                   "verdicts": vd.observer_verdicts(res)}
-            figs = {"loop-observer-phase.png": plots.observer_phase_figure, "loop-observer-smc.png": plots.observer_smc_figure}
-        elif args.study == "controllers":
-            keep = {(5.0, "sine:1Hz", k) for k in ("line_model_thesis", "line_model_damped")}
-            res = st.controller_study(keep_runs=keep, progress=progress, **kw)
-            text, out = vd.controller_tables(res), {"rows": res["rows"], "tuning": res["tuning"], "verdicts": {
-                k: vd.controller_verdicts(res, k, smc) for k, smc in (("line_model_thesis", "smc"),
-                                                                      ("line_model_thesis_rule", "smc_rule"),
-                                                                      ("line_model_damped", "smc_rule"))}}
-            figs = {"loop-controllers-mse.png": plots.controller_mse_figure,
-                    "loop-controllers-virtual-input.png": plots.controller_virtual_input_figure}
-        elif args.study == "plant-physics":
-            res = st.plant_physics_study(progress=progress, **kw)
-            text, out = vd.plant_physics_tables(res), {"variants": res["variants"], "rows": res["rows"],
-                                                       "tuning": res["tuning"]}
-            figs = {}
-        else:
-            res = st.sensor_study(progress=progress, **kw)
-            text, out = vd.sensor_tables(res), {"rows": res["rows"]}
-            figs = {"loop-sensor.png": plots.sensor_figure}
+        res, text, out, figs = run_study(args.study, progress, **kw)
     out["settling_rule"] = SETTLING_RULE
     md = args.out / f"loop-{args.study}.md"
     with atomic_path(md) as tmp:

@@ -119,38 +119,18 @@ def _measure(name, path_a, path_b, args, options):
         from mri.io import load_image
 
         a, b = load_image(path_a), None if path_b is None else load_image(path_b)
-        _write_figure(args.figure, [figure_panel(name, a, b, {}, (), 0, exc.rois)])
+        from sensor.report.snr_report import write_snr_outputs
+
+        write_snr_outputs(None, args.figure, None, [], [figure_panel(name, a, b, {}, (), 0, exc.rois)])
         raise type(exc)(f"{exc}; the boxes are drawn in {args.figure}") from None
 
 
-def _write_figure(path, panels) -> None:
-    from geometry.atomic import save_figure
-    from mri.figure import pair_figure
-
-    save_figure(pair_figure(panels), path)
-
-
 def _write_outputs(args, pairs, panels, comparison=None) -> None:
-    """The --csv, --figure and --report files as one set: each is written to a temporary
-    file beside its name, and all are moved into place only when every one is complete."""
-    from contextlib import ExitStack
+    """The --csv, --figure and --report files as one set (sensor.report.snr_report.write_snr_outputs)."""
+    from sensor.report.snr_report import write_snr_outputs
 
-    from geometry.atomic import atomic_path
-
-    with ExitStack() as stack:
-        staged = {flag: stack.enter_context(atomic_path(path)) for flag, path in
-                  (("csv", args.csv), ("figure", args.figure), ("report", args.report)) if path}
-        if args.csv:
-            from mri.study import write_csv
-
-            write_csv(staged["csv"], pairs)
-        if args.figure:
-            _write_figure(staged["figure"], panels)
-        if args.report:
-            from sensor.report.snr_report import write_snr_report
-
-            command = "dacm snr " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["snr"] else "dacm snr"
-            write_snr_report(staged["report"], pairs, panels, comparison, command)
+    command = "dacm snr " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["snr"] else "dacm snr"
+    write_snr_outputs(args.csv, args.figure, args.report, pairs, panels, comparison, command)
 
 
 def _written(args) -> list[str]:

@@ -232,3 +232,25 @@ def write_snr_report(path, pairs, panels, comparison=None, command: str = "dacm 
         raise FileExistsError(f"{path} exists (replace it with force)")
     context = snr_report_context(pairs, panels, comparison, command)
     return write_html(render_template("snr_report.html.j2", **context), path, force=force)
+
+
+def write_snr_outputs(csv_path, figure_path, report_path, pairs, panels, comparison=None,
+                      command: str = "dacm snr") -> None:
+    """Write the given ones of a CSV of the measured pairs, the figure of their panels and the
+    HTML report as one set: each to a temporary file beside its name, all moved into place
+    only when every one is complete (:func:`geometry.atomic.atomic_path`)."""
+    from contextlib import ExitStack
+
+    from geometry.atomic import atomic_path, save_figure
+    from mri.figure import pair_figure
+    from mri.study import write_csv
+
+    with ExitStack() as stack:
+        tmp = {key: stack.enter_context(atomic_path(path)) for key, path in
+               (("csv", csv_path), ("figure", figure_path), ("report", report_path)) if path}
+        if csv_path:
+            write_csv(tmp["csv"], pairs)
+        if figure_path:
+            save_figure(pair_figure(panels), tmp["figure"])
+        if report_path:
+            write_snr_report(tmp["report"], pairs, panels, comparison, command)
