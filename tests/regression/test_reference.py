@@ -10,7 +10,7 @@ from geometry.params import make_design
 from geometry.topology import build_beam_model
 from sensor.mechanics.qualifiers import Qualifiers, qualify
 from sensor.mechanics.solver import solve_batch
-from tests.regression.make_reference import preset_values
+from tests.regression.make_reference import REFERENCE_SWEEP, preset_values
 from tests.regression.reference import RTOL, deviations, load, relative_deviation
 
 
@@ -27,15 +27,11 @@ def test_presets_solves_datasheets_and_optics_are_unchanged(reference):
 
 
 # rows with failing cells (05-03 at small phi1: snap-through and stubborn cells solved alone)
-# and plain ones, both hinge sets; indices into the reference grid (6:31:41 x 4:56:41)
+# and plain ones, both hinge sets; indices into the reference grid (REFERENCE_SWEEP)
 ROWS = [("05-03", 0), ("05-03", 7), ("05-03", 20), ("03-03", 10), ("03-03", 40)]
-HINGE_SETS, PHI1, PHI2 = ("05-03", "03-03"), np.linspace(6.0, 31.0, 41), np.linspace(4.0, 56.0, 41)
+HINGE_SETS, PHI1, PHI2 = REFERENCE_SWEEP.hinge_sets, REFERENCE_SWEEP.phi1.values, REFERENCE_SWEEP.phi2.values
 
 
-@pytest.mark.xfail(strict=True, reason="disagrees since the cut-part model: cells next to the toggle at small "
-                   "phi1 solve to other states in a row's batch than in the sweep that made the reference "
-                   "(05-03 row 7: A 1.194 against 1.096 at the first feasible phi2; row 0: a cell fails in one "
-                   "path only): the solve depends on the path there; to be found and fixed")
 def test_default_sweep_rows_are_unchanged(reference):
     """The proposed body of every cell of some rows, solved and qualified directly (feasibility
     check, beam model, batch solve, qualifiers), against the reference sweep: the same cells
