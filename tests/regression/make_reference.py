@@ -5,7 +5,7 @@ after the model of the part as cut, issue 23, changed every result on purpose):
     python -m tests.regression.make_reference
 It writes tests/regression/data/reference.npz: every preset's solve (default options and to
 a target force), the datasheet and cross-axis figures of every preset with the `dacm sensor`
-defaults, the optics curves of both intensity models, and the default sweep's dataset.
+defaults, the optics curves of both intensity models, and the dataset of REFERENCE_SWEEP.
 """
 
 import dataclasses
