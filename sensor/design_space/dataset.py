@@ -7,6 +7,8 @@ and the reason for every infeasible cell, with the run's settings as attributes.
 
 from __future__ import annotations
 
+import contextlib
+
 import hashlib
 import json
 from pathlib import Path
@@ -189,7 +191,19 @@ def save_dataset(ds: xr.Dataset, path: Path) -> None:
     out[HINGE_LABEL] = out[HINGE_LABEL].astype(str)
     out.attrs["history"] = _history(ds.attrs.get("history", ""))
     encoding = {k: {"_FillValue": None} for k in out.coords}
-    write_bytes(path, out.to_netcdf(engine="h5netcdf", encoding=encoding))
+    with _local_dask():
+        write_bytes(path, out.to_netcdf(engine="h5netcdf", encoding=encoding))
+
+
+def _local_dask():
+    """A context in which xarray writes with dask's local scheduler: beside a user's default
+    distributed Client it would take a cluster lock named by the in-memory target, which the
+    scheduler refuses."""
+    try:
+        import dask
+    except ImportError:
+        return contextlib.nullcontext()
+    return dask.config.set(scheduler="synchronous")
 
 
 def _history(history: str) -> str:

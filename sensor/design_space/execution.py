@@ -264,7 +264,8 @@ def _execute_dask(spec, todo, address: str, timeout_s: float = 5.0,
     try:
         # only as_completed holds the futures: a row's result is released on the cluster
         # once it is merged, so the workers' memory does not grow with the grid
-        pending = as_completed([client.submit(solve_row, spec, h, i, m, pure=False) for h, i, m in todo])
+        pending = as_completed([client.submit(solve_row, spec, h, i, m, pure=False) for h, i, m in todo],
+                               loop=client.loop)
         healthy = time.monotonic()
         while not pending.is_empty():
             batch = pending.next_batch(block=False)
@@ -294,14 +295,17 @@ def connect_client(address: str, timeout_s: float = 5.0):
     """A Dask ``Client`` of the scheduler at ``address``, or :class:`SweepError` naming the
     address within ``PROBE_TIMEOUT_S + timeout_s`` seconds: a TCP address is probed first
     (:func:`probe_scheduler`), since distributed itself waits forever on a port that accepts
-    and never replies and reads a non-Dask answer as a frame length of exabytes."""
+    and never replies and reads a non-Dask answer as a frame length of exabytes. The client
+    does not become dask's default scheduler: the sweep submits its rows to it by name, and
+    as the default it made xarray take a cluster lock for the in-memory NetCDF of a
+    checkpoint, which the scheduler refuses."""
     try:
         from distributed import Client
     except ImportError:
         raise SweepError("--scheduler needs the 'distributed' extra: pip install 'dacm[distributed]'") from None
     probe_scheduler(address)
     try:
-        return Client(address, timeout=timeout_s)
+        return Client(address, timeout=timeout_s, set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise SweepError(f"--scheduler = {address!r}: cannot reach the Dask scheduler within "
                          f"{timeout_s:g} s ({type(exc).__name__})") from None

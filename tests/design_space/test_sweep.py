@@ -152,13 +152,33 @@ def test_parallel_equals_serial(serial):
     _same(serial, run_sweep(SMALL, "test", workers=2)[0])
 
 
-def test_dask_cluster_equals_serial(serial):
+def test_dask_cluster_equals_serial(serial, tmp_path):
+    """On a cluster, with checkpoints saved to a file as `dacm sweep --scheduler` does (the
+    client must not make itself dask's default scheduler: xarray then took a cluster lock
+    named by the in-memory NetCDF target, which the scheduler refused)."""
     distributed = pytest.importorskip("distributed")
+    path = tmp_path / "sweep.nc"
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1",
                                   dashboard_address=None, processes=True) as cluster:
-        ds, n = run_sweep(SMALL, "test", scheduler=cluster.scheduler_address)
+        ds, n = run_sweep(SMALL, "test", path, scheduler=cluster.scheduler_address, checkpoint_s=0.0)
     assert n == 20
     _same(serial, ds)
+    saved = load_dataset(path)            # the last checkpoint: the cells computed by then
+    done = saved["computed"].values.astype(bool)
+    assert done.any()
+    np.testing.assert_array_equal(saved["amplification"].values[done], serial["amplification"].values[done])
+
+
+def test_dataset_saves_beside_a_users_default_client(serial, tmp_path):
+    """A Python user with a distributed Client of their own (dask's default scheduler) can
+    save a sweep's dataset."""
+    distributed = pytest.importorskip("distributed")
+    from sensor.design_space.dataset import save_dataset
+
+    with distributed.LocalCluster(n_workers=1, processes=True, host="127.0.0.1", dashboard_address=None) as cluster, \
+            distributed.Client(cluster):
+        save_dataset(serial, tmp_path / "sweep.nc")
+    _same(serial, load_dataset(tmp_path / "sweep.nc"))
 
 
 def test_dask_rows_are_released_once_merged():
