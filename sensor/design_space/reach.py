@@ -3,10 +3,14 @@ full-scale force of any feasible body of the problem's family (its body, angle d
 groups and bounds, stress limit with the search's slack), so that ``dacm design`` says "no body
 reaches it" only for a range outside this interval, and names the interval.
 
-Each end is a constrained optimisation of its own, by the same multi-start SLSQP as the design
-search (:mod:`sensor.design_space.optimise`): minimise (maximise) log range subject to the
-stress utilisation <= 1 - STRESS_SLACK and the angle domain, from a Latin hypercube and from
-the corner of every hinge at its lower (upper) bound, at the angles of a coarse grid.
+Each end is bracketed, then polished. A scan of the feasible angles every REACH_SCAN_STEP_DEG
+degrees, with every hinge at its lower bound (the softest bodies) and with equal hinges as thick
+as the bounds and the stress limit allow (the stiffest), finds each end's best bodies on the grid; from the REACH_POLISH best of each and
+from a Latin hypercube, the same SLSQP as the design search (:mod:`sensor.design_space.optimise`)
+minimises (maximises) log range subject to the stress utilisation <= 1 - STRESS_SLACK and the
+angle domain. The ends are the extremes of every feasible body seen, the scans included, so
+they are never inside a feasible body the grid holds (tests/design_space/test_optimise.py holds
+them against a dense scan of equal-hinge bodies at every thickness).
 """
 
 from __future__ import annotations
@@ -19,22 +23,72 @@ from scipy.stats import qmc
 from sensor.design_space.optimise import (
     STRESS_SLACK,
     DesignProblem,
+    Point,
     _local_search,
     evaluate,
     feasible,
 )
 
-#: Starts per end: Latin-hypercube points, and the grid of angles at the thickness corner.
-REACH_STARTS, REACH_GRID = 4, 3
+#: Angle step of the scans (deg), the best scanned bodies polished per end, the
+#: Latin-hypercube starts per end, and the passes that bring the stiffest scan's bodies to
+#: the stress limit.
+REACH_SCAN_STEP_DEG, REACH_POLISH, REACH_STARTS, STRESS_PASSES = 1.0, 4, 4, 3
 
 
-def _end_starts(problem: DesignProblem, corner: float) -> np.ndarray:
+def scan_angles(problem: DesignProblem) -> np.ndarray:
+    """The feasible angles on a REACH_SCAN_STEP_DEG grid (rows: phi1 [, phi2], deg)."""
     k = problem.n_angles
+    lo, hi = problem.lower[:k], problem.upper[:k]
+    axes = [np.linspace(a, b, int(np.ceil((b - a) / REACH_SCAN_STEP_DEG)) + 1) for a, b in zip(lo, hi)]
+    angles = np.array(np.meshgrid(*axes, indexing="ij")).reshape(k, -1).T
+    if problem.body == "proposed":
+        angles = angles[angles[:, 1] <= [problem.domain.phi2_edge(p) for p in angles[:, 0]]]
+    return angles
+
+
+def softest_scan(problem: DesignProblem, angles: np.ndarray) -> list[Point]:
+    """The bodies of ``angles`` with every hinge at its lower bound, as one batch."""
+    k = problem.n_angles
+    return evaluate(problem, np.hstack([angles, np.tile(problem.lower[k:], (len(angles), 1))]))
+
+
+def stiffest_scan(problem: DesignProblem, softest: list[Point]) -> list[Point]:
+    """At each angle of ``softest``, the body of equal hinges as thick as the bounds and the
+    stress limit allow. A hinge's bending stress at a given travel grows about as its
+    thickness, so the thickness starts at t_min (1 - 2 STRESS_SLACK) / utilisation(t_min),
+    within the bounds, and STRESS_PASSES passes of t -> t (1 - 2 STRESS_SLACK) / utilisation
+    correct it (a pass that makes a body fail is undone)."""
+    k = problem.n_angles
+    lo, hi = problem.lower[k], problem.upper[k]
+    target = np.log1p(-2 * STRESS_SLACK)
+    util = np.array([pt.utilisation if pt.ok else np.nan for pt in softest])
+    logt = np.where(np.isfinite(util), np.clip(lo + target - np.log(util), lo, hi), hi)
+    Z = np.hstack([np.array([pt.z[:k] for pt in softest]), np.repeat(logt[:, None], len(problem.pairs), axis=1)])
+    pts = evaluate(problem, Z)
+    for _ in range(STRESS_PASSES):
+        util = np.array([pt.utilisation for pt in pts])
+        ok = np.array([pt.ok for pt in pts])
+        new = np.clip(Z[:, k] + target - np.log(np.where(ok, util, 1.0)), lo, hi)
+        move = ok & (np.abs(new - Z[:, k]) > 1e-4)
+        if not move.any():
+            break
+        Z2 = Z[move].copy()
+        Z2[:, k:] = new[move, None]
+        for n, z, pt in zip(np.flatnonzero(move), Z2, evaluate(problem, Z2)):
+            if pt.ok:
+                Z[n], pts[n] = z, pt
+    return pts
+
+
+def _end_starts(problem: DesignProblem, corner: float, scan: list[Point]) -> np.ndarray:
+    """Starts in the unit box for one end: the REACH_POLISH feasible scanned bodies of the
+    smallest (``corner`` 0, the softest scan) or largest (1, the stiffest) range, and a Latin
+    hypercube."""
+    good = sorted((pt for pt in scan if feasible(problem, pt, slack=STRESS_SLACK, in_range=False)),
+                  key=lambda pt: pt.log_range_error * (1 if corner == 0.0 else -1))
+    best = [problem.to_unit(pt.z) for pt in good[:REACH_POLISH]]
     lhs = qmc.LatinHypercube(d=len(problem.lower), seed=problem.seed).random(REACH_STARTS)
-    axes = [np.linspace(0.1, 0.9, REACH_GRID)] * k
-    grid = np.array(np.meshgrid(*axes, indexing="ij")).reshape(k, -1).T
-    corners = np.hstack([grid, np.full((len(grid), len(problem.pairs)), corner)])
-    return np.vstack([corners, lhs])
+    return np.vstack([*best, lhs])
 
 
 def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False):
@@ -45,10 +99,13 @@ def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False
     found below and above it. The feasible ranges need not be one interval: the stress limit
     can leave a gap (the basis body in delrin: about 9-20 N), which these name."""
     p = replace(problem, range_N=1.0)     # the range is the objective here, not a constraint
-    jobs = [(p, u, "min_range") for u in _end_starts(p, 0.0)] + [(p, u, "max_range") for u in _end_starts(p, 1.0)]
+    softest = softest_scan(p, scan_angles(p))
+    scans = {0.0: softest, 1.0: stiffest_scan(p, softest)}
+    jobs = [(p, u, objective) for corner, objective in ((0.0, "min_range"), (1.0, "max_range"))
+            for u in _end_starts(p, corner, scans[corner])]
     runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
     ends = evaluate(p, p.from_unit(np.array([u for u, _, _ in runs])))
-    pts = [pt for _, seen, _ in runs for pt in seen] + ends
+    pts = [pt for _, seen, _ in runs for pt in seen] + ends + scans[0.0] + scans[1.0]
     good = sorted((pt for pt in pts if feasible(p, pt, slack=STRESS_SLACK - 1e-9, in_range=False)),
                   key=lambda pt: pt.log_range_error)
     reach = (float(np.exp(good[0].log_range_error)), float(np.exp(good[-1].log_range_error))) if good else (np.nan, np.nan)
@@ -60,7 +117,7 @@ def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False
         below = [pt.log_range_error for pt in good if pt.log_range_error <= target]
         above = [pt.log_range_error for pt in good if pt.log_range_error >= target]
         gap = (float(np.exp(max(below))) if below else np.nan, float(np.exp(min(above))) if above else np.nan)
-        return reach, [pt.design for pt in near[:REACH_STARTS + REACH_GRID]], gap
+        return reach, [pt.design for pt in near[:REACH_POLISH + REACH_STARTS]], gap
     return reach
 
 

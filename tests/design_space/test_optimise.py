@@ -65,9 +65,6 @@ def test_a_feasible_body_whenever_an_equal_hinge_cell_proves_one_exists(body, ma
             assert res.hysteresis <= best * 1.001, (body, material, r, res.hysteresis, best)
 
 
-@pytest.mark.xfail(strict=True, reason="disagrees: on the cut-part model the reach computed for the proposed body "
-                   "in delrin starts at 1.079 N, above a feasible equal-hinge body at 1.037 N (and ends at "
-                   "35.7 N, beyond the scan's 33.5 N): the reach is sampled, not bracketed")
 def test_reach_brackets_every_feasible_equal_hinge_body_and_its_ends_are_feasible():
     """The reachable interval of the proposed body in delrin: no feasible equal-hinge body of
     a dense scan (2-degree angles, 30 thicknesses of 0.3-2 mm) lies outside it (1e-3 for the
