@@ -361,10 +361,16 @@ def feasible(problem: DesignProblem, pt: Point, slack: float = 0.0, in_range: bo
 
 
 def _local_search(args) -> tuple[np.ndarray, list[Point], int]:
-    """One SLSQP run: (its end in the unit box, every point evaluated, solves made)."""
+    """One SLSQP run: (its end in the unit box, every point evaluated, solves made). BLAS
+    runs on one thread, as in the pool's workers: with more, its sums are ordered otherwise,
+    and SLSQP's iterates (and the answer, by a quantum of the written values) depended on
+    where the search ran."""
+    from threadpoolctl import threadpool_limits
+
     problem, u0, objective = args
-    loc = _Local(problem, objective)
-    res = loc.run(u0, equality=objective == "se")
+    with threadpool_limits(1):
+        loc = _Local(problem, objective)
+        res = loc.run(u0, equality=objective == "se")
     return np.clip(res.x, 0, 1), loc.points, loc.solves
 
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 from scipy.stats import norm
+from threadpoolctl import threadpool_limits
 
 from geometry.params import Design
 from sensor.design_space.optimise import OBJECTIVE_SCALE, DesignProblem, written
@@ -129,10 +130,11 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
         return grads[key]
 
     u0 = np.clip(problem.to_unit(problem.variables(nominal)), 0, 1)
-    minimize(lambda u: OBJECTIVE_SCALE * at(u)[0], u0, jac=lambda u: OBJECTIVE_SCALE * grad(u)[0],
-             method="SLSQP", bounds=[(0.0, 1.0)] * len(u0),
-             constraints=[{"type": "ineq", "fun": lambda u: at(u)[1:], "jac": lambda u: grad(u)[1:]}],
-             options={"maxiter": ITERATIONS, "ftol": 1e-8})
+    with threadpool_limits(1):     # as the nominal search: the answer must not depend on the cores
+        minimize(lambda u: OBJECTIVE_SCALE * at(u)[0], u0, jac=lambda u: OBJECTIVE_SCALE * grad(u)[0],
+                 method="SLSQP", bounds=[(0.0, 1.0)] * len(u0),
+                 constraints=[{"type": "ineq", "fun": lambda u: at(u)[1:], "jac": lambda u: grad(u)[1:]}],
+                 options={"maxiter": ITERATIONS, "ftol": 1e-8})
     # the best point seen that keeps the constraints (else the least violating)
     seen = [(np.frombuffer(k), v) for k, v in values.items()]
     good = [(v[0], u) for u, v in seen if v[1:].min() >= 0]
