@@ -146,7 +146,8 @@ def _fmt(x: float) -> str:
 
 def _cells_status(row: dict, keys) -> str:
     """'settled', or each run that is not, with its status."""
-    notes = [f"{CH5_HEADINGS[k]}: {status_text(row[k])}" for k in keys if not row[k]["settled"]]
+    notes = [f"{CH5_HEADINGS[k]}: {status_text(row[k])}" for k in keys
+             if not row[k]["settled"] or row[k].get("settled_by") == "noise_free_twin"]
     return "; ".join(notes) if notes else "settled"
 
 
