@@ -34,7 +34,8 @@ def test_line_model_json_has_the_virtual_input_mse(capsys):
     # the force (0.11 N^2), far below the 50 N^2 of doing nothing
     assert out["valve"] == "enfield-lh05" and 0 < out["virtual_input_mse_N2"] < 1.0
     assert out["force_mse_N2"] < 5.0
-    assert set(out["gains"]) == {"lam_per_s", "kp1", "kp2_per_s", "ki2_per_s2", "flow_rate_per_s"}   # section 5.4.2
+    assert set(out["gains"]) == {"lam_per_s", "kp1", "ki1_per_s", "kp2_per_s", "ki2_per_s2",
+                                 "flow_rate_per_s"}   # section 5.4.2
     assert out["gains"]["flow_rate_per_s"] > 0                 # ours: line-flow damping k_m
     assert out["line_model_pressure_mse_kPa2"] < out["pressure_mse_kPa2"]     # Figure 37's claim
 
