@@ -159,6 +159,8 @@ def _status_line(m: dict) -> str:
     amplitude, or unsettled with the advice."""
     if m["limit_cycle"]:
         return f"limit cycle at {m['limit_cycle_hz']:.3g} Hz, amplitude {m['limit_cycle_amplitude_N']:.3g} N"
+    if m.get("settled_by") == "noise_free_twin":
+        return f"settled by its noise-free twin, its own blocks {100 * m['noise_block_change']:.0f} % apart"
     return "settled" if m["settled"] else "NOT settled, run longer"
 
 

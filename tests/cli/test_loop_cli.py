@@ -129,3 +129,17 @@ def test_default_duration_settles(capsys):
     assert main(["loop", "--line-length", "1", "--segments", "4", "--no-plots", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["duration_s"] == 30.0 and out["settled"] is True and out["window_s"] == [28.0, 30.0]
+
+
+def test_a_single_run_is_named_by_the_same_rule_as_the_studies(capsys):
+    # dacm loop measures a run as the studies do (experiment.measure): the damped line model at
+    # 7.25 m, 0.5 Hz fails the 10 % block bound on its sensors' noise and is settled by its
+    # noise-free twin, which the JSON and the console say
+    args = ["loop", "--controller", "line-model-damped", "--observer", "standard", "--reference", "sine:0.5Hz",
+            "--no-plots"]
+    assert main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "settled" and out["settled_by"] == "noise_free_twin" and out["noise_block_change"] > 0.10
+    assert out["settling"]["noise_free_twin"]["block_change"] < 0.01
+    assert main(args) == 0
+    assert "settled by its noise-free twin, its own blocks" in capsys.readouterr().out
