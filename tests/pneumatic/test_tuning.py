@@ -71,3 +71,15 @@ def test_the_search_matches_at_10_m_and_says_why_not_at_2_m():
     assert not two["matched"] and two["mismatch"] is None
     assert all(c["settling_time_s"] is None and c["tail_rms_N"] > 10.0 for c in two["candidates"]["line_model"])
     assert two["smc"]["fraction"] == SMC_SLOPE_FRACTION
+
+
+def test_no_gain_lets_the_thesis_controller_settle_on_a_2_m_line():
+    # Beyond the search: the corners of the probe's grid (outer lambda 0.5 and 40 /s, k_p1 0 and
+    # 2.4, k_i1 0, inner k_p2 5 and 27.5 /s) on the 2 m line: every step run keeps oscillating,
+    # a limit cycle of more than 10 N (20-65 N over probe()'s full grid, measured), and never
+    # settles within 2 %.
+    from sensor.pneumatic.tuning import probe
+    rows = probe(2.0, lams=(0.5, 40.0), kp1s=(0.0, 2.4), ki1s=(0.0,), kp2s=(5.0, 27.5))
+    assert len(rows) == 8
+    for r in rows:
+        assert r["settling_time_s"] is None and r["limit_cycle"] and r["amplitude_N"] > 10.0, r
