@@ -109,24 +109,32 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
     ``why`` not)."""
     t0 = time.monotonic()
     zd = draws_z(draws, seed)[:SEARCH_DRAWS]
-    cache: dict[bytes, tuple] = {}
+    values: dict[bytes, np.ndarray] = {}
+    grads: dict[bytes, np.ndarray] = {}
 
     def at(u):
+        """The objective and constraints at u (one batch of SEARCH_DRAWS parts), cached."""
         key = np.asarray(u).tobytes()
-        if key not in cache:
+        if key not in values:
+            values[key] = _values(problem, zd, problem.from_unit(u), min_yield)
+        return values[key]
+
+    def grad(u):
+        """Their forward differences, only where SLSQP asks (not at line-search points)."""
+        key = np.asarray(u).tobytes()
+        if key not in grads:
             step = np.where(u + ROBUST_FD_STEP <= 1.0, ROBUST_FD_STEP, -ROBUST_FD_STEP)
-            U = np.vstack([u, u + np.diag(step)])
-            vals = np.array([_values(problem, zd, problem.from_unit(x), min_yield) for x in U])
-            cache[key] = (vals[0], (vals[1:] - vals[0]).T / step)
-        return cache[key]
+            vals = np.array([_values(problem, zd, problem.from_unit(x), min_yield) for x in u + np.diag(step)])
+            grads[key] = (vals - at(u)).T / step
+        return grads[key]
 
     u0 = np.clip(problem.to_unit(problem.variables(nominal)), 0, 1)
-    minimize(lambda u: OBJECTIVE_SCALE * at(u)[0][0], u0, jac=lambda u: OBJECTIVE_SCALE * at(u)[1][0],
-                   method="SLSQP", bounds=[(0.0, 1.0)] * len(u0),
-                   constraints=[{"type": "ineq", "fun": lambda u: at(u)[0][1:], "jac": lambda u: at(u)[1][1:]}],
-                   options={"maxiter": ITERATIONS, "ftol": 1e-8})
+    minimize(lambda u: OBJECTIVE_SCALE * at(u)[0], u0, jac=lambda u: OBJECTIVE_SCALE * grad(u)[0],
+             method="SLSQP", bounds=[(0.0, 1.0)] * len(u0),
+             constraints=[{"type": "ineq", "fun": lambda u: at(u)[1:], "jac": lambda u: grad(u)[1:]}],
+             options={"maxiter": ITERATIONS, "ftol": 1e-8})
     # the best point seen that keeps the constraints (else the least violating)
-    seen = [(u, v) for u, (v, _) in ((np.frombuffer(k), c) for k, c in cache.items())]
+    seen = [(np.frombuffer(k), v) for k, v in values.items()]
     good = [(v[0], u) for u, v in seen if v[1:].min() >= 0]
     if good:
         u = min(good, key=lambda g: g[0])[1]

@@ -344,7 +344,7 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     members = topo.flex[cols]
     # the integrals depend on the profile alone (a sweep's cells share a few): each distinct
     # profile is integrated once, then scaled by each design's E, G and depth
-    per = np.array([[_profile_sections(m.profile_mm[k]) for k in members] for m in models])  # (B, h, 7)
+    per = _profile_sections([m.profile_mm[k] for m in models for k in members]).reshape(len(models), len(members), 7)
     scale = (L0[:, cols] / np.array([[m.profile_mm[k][-1, 0] for k in members] for m in models]))
     inv_t, inv_t3, arm1, arm2 = (per[..., i] for i in range(4))
     bE, bG = E * b[:, cols], G * b[:, cols]
@@ -362,20 +362,27 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
 _SECTIONS: dict = {}
 
 
-def _profile_sections(profile: np.ndarray) -> np.ndarray:
-    """(int ds/t, int ds/t^3, int (L-s) ds/t^3, int (L-s)^2 ds/t^3, bowing p11, p12, p22) of
-    one thickness profile (mm; :func:`profile_flexibility` and :func:`profile_bowing` at unit
-    E b), cached by its bytes."""
-    key = profile.tobytes()
-    out = _SECTIONS.get(key)
-    if out is None:
-        if len(_SECTIONS) > 100_000:
-            _SECTIONS.clear()
-        C = profile_flexibility(profile, 1.0, 1.0, np.inf)
+def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
+    """(n, 7): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
+    int (L-s)^2 ds/t^3, bowing p11, p12, p22) of :func:`profile_flexibility` and
+    :func:`profile_bowing` at unit E b, cached by its bytes; the profiles not cached yet
+    (every part of a Monte Carlo draw is new) are integrated together, one batch per number
+    of stations."""
+    if len(_SECTIONS) > 100_000:
+        _SECTIONS.clear()
+    keys = [p.tobytes() for p in profiles]
+    new: dict[int, dict[bytes, np.ndarray]] = {}
+    for key, p in zip(keys, profiles):
+        if key not in _SECTIONS:
+            new.setdefault(len(p), {})[key] = p
+    for group in new.values():
+        st = np.array(list(group.values()))
+        C = profile_flexibility(st, 1.0, 1.0, np.inf)
         with np.errstate(invalid="ignore", divide="ignore"):  # zero-length segments
-            bow = np.nan_to_num(profile_bowing(profile))
-        out = _SECTIONS[key] = np.array([C[0, 0], C[2, 2] / 12.0, C[1, 2] / 12.0, C[1, 1] / 12.0, *bow])
-    return out
+            bow = np.nan_to_num(profile_bowing(st))
+        rows = np.column_stack([C[:, 0, 0], C[:, 2, 2] / 12.0, C[:, 1, 2] / 12.0, C[:, 1, 1] / 12.0, bow])
+        _SECTIONS.update(zip(group, rows))
+    return np.array([_SECTIONS[k] for k in keys]).reshape(len(keys), 7)
 
 
 # --- results ---------------------------------------------------------------------------------

@@ -5,7 +5,7 @@ the optimiser against.
 
 Method (different from the optimiser's multi-start SLSQP with the range as an equality
 constraint): differential evolution (:func:`scipy.optimize.differential_evolution`, population
-12 per variable, 80 generations, seeded) over the angles and the hinge groups' thickness
+12 per variable, 100 generations, seeded) over the angles and the hinge groups' thickness
 *ratios*, each candidate's hinges scaled together until its range is the target within 1e-6
 (:func:`sensor.design_space.optimise.scale_to_range`), then repaired (hinges beyond a bound
 clipped to it, the others scaled to the range again), scored by log strain energy plus a
@@ -33,7 +33,7 @@ from sensor.design_space.optimise import STRESS_SLACK, DesignProblem, evaluate, 
 RANGES_N = (1.0, 2.0, 5.0, 10.0, 15.0)
 BODIES = ("proposed",)
 PATH = Path(__file__).with_name("data") / "reference_search.json"
-POPSIZE, GENERATIONS, SEED = 12, 80, 12345
+POPSIZE, GENERATIONS, SEED = 12, 100, 12345
 REPAIRS = 8
 
 
