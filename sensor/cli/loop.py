@@ -69,58 +69,17 @@ def register(subparsers) -> None:
 
 
 def _setup(args):
-    from sensor.pneumatic.controllers import CONTROLLERS, MAX_REFERENCE_N
-    from sensor.pneumatic.cylinder import Cylinder, spring_contact
-    from sensor.pneumatic.dacm_sensor import DacmForceSensor, sensor_reference, series_spring
-    from sensor.pneumatic.experiment import Setup, settling_duration_s
-    from sensor.pneumatic.lines import MAX_LENGTH_M
-    from sensor.pneumatic.observer import OBSERVER_KINDS
+    from sensor.pneumatic.experiment import setup_from_flags
 
-    if args.controller not in CONTROLLERS:
-        raise SensorInputError(f"--controller {args.controller!r}: must be one of {', '.join(CONTROLLERS)}")
-    if args.observer not in OBSERVER_KINDS:
-        raise SensorInputError(f"--observer {args.observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
-    if not (math.isfinite(args.line_length) and 0 < args.line_length <= MAX_LENGTH_M):
-        raise SensorInputError(f"--line-length {args.line_length!r}: must be a positive finite number <= "
-                               f"{MAX_LENGTH_M:g} (m)")
-    for flag, value in (("--amplitude", args.amplitude), ("--offset", args.offset)):
-        if value is not None and not (math.isfinite(value) and abs(value) <= MAX_REFERENCE_N):
-            raise SensorInputError(f"{flag} {value!r}: must be a finite force within +-{MAX_REFERENCE_N:g} N")
-    valve = args.valve or ("festo-mpye-5-1/8-lf" if args.controller in ("pi", "impedance") else "enfield-lh05")
-    kw, notes, amp, off = {}, [], 24.0, 0.0
-    if args.sensor:
-        fs = DacmForceSensor(args.sensor)
-        kw = {"force_sensor": fs, "environment": spring_contact(series_spring(2000.0, fs.stiffness_N_m), 0.025)}
-        amp, off = sensor_reference(fs.range_N)
-        if args.amplitude is None or args.offset is None:
-            notes.append(f"note: reference within the sensor's {fs.range_N:.3g} N range: amplitude "
-                         f"{args.amplitude if args.amplitude is not None else amp:.3g} N, offset "
-                         f"{args.offset if args.offset is not None else off:.3g} N (set --amplitude/--offset to change)")
-    setup = Setup(controller=args.controller, observer=args.observer, reference=args.reference,
-                  amplitude_N=amp if args.amplitude is None else args.amplitude,
-                  offset_N=off if args.offset is None else args.offset, line_length_m=args.line_length,
-                  segments=args.segments, valve=valve,
-                  duration_s=settling_duration_s(args.reference) if args.duration is None else args.duration,
-                  **_physics(args, Cylinder.coulomb_N), **kw)
-    return setup, notes
+    return setup_from_flags(args.controller, args.observer, args.reference, args.amplitude, args.offset,
+                            args.line_length, args.segments, args.valve, args.sensor, args.duration,
+                            physics_from_flags(args))
 
 
-def _physics(args, default_coulomb_N: float) -> dict:
-    """The Setup fields of --stiction, --coulomb, --spool-bandwidth and --energy (checked there;
-    the flags' names in the messages)."""
-    from sensor.pneumatic.experiment import MAX_FRICTION_N
+def physics_from_flags(args) -> dict:
+    from sensor.pneumatic.experiment import physics_from_flags as physics
 
-    coulomb = default_coulomb_N if args.coulomb is None else args.coulomb
-    for flag, value in (("--stiction", args.stiction), ("--coulomb", coulomb)):
-        if not (math.isfinite(value) and 0 <= value <= MAX_FRICTION_N):
-            raise SensorInputError(f"{flag} {value!r}: must be a finite force in [0, {MAX_FRICTION_N:g}] N")
-    if 0 < args.stiction < coulomb:
-        raise SensorInputError(f"--stiction {args.stiction!r}: must be 0 (no stick-slip) or >= the Coulomb friction "
-                               f"{coulomb:g} N")
-    if not (args.spool_bandwidth > 0 and not math.isnan(args.spool_bandwidth)):
-        raise SensorInputError(f"--spool-bandwidth {args.spool_bandwidth!r}: must be a positive number of Hz")
-    return {"stiction_N": args.stiction, "coulomb_N": coulomb, "spool_bandwidth_Hz": args.spool_bandwidth,
-            "energy": bool(args.energy)}
+    return physics(args.stiction, args.coulomb, args.spool_bandwidth, args.energy)
 
 
 def run(args) -> int:
@@ -135,9 +94,7 @@ def run(args) -> int:
     if args.duration is not None and not (math.isfinite(args.duration) and 0 < args.duration <= MAX_DURATION_S):
         raise SensorInputError(f"--duration {args.duration!r}: must be a positive finite number <= "
                                f"{MAX_DURATION_S:g} (s)")
-    from sensor.pneumatic.cylinder import Cylinder
-
-    physics = _physics(args, Cylinder.coulomb_N)
+    physics = physics_from_flags(args)
     if args.study and (physics["stiction_N"] or args.coulomb is not None or physics["energy"]
                        or math.isfinite(physics["spool_bandwidth_Hz"])):
         raise SensorInputError("--stiction, --coulomb, --spool-bandwidth and --energy: apply to a single run, not "
@@ -162,15 +119,15 @@ def run(args) -> int:
 def _run_one(args) -> dict:
     from geometry.atomic import save_figure
     from sensor.pneumatic.plots import loop_figure
+    from sensor.pneumatic.experiment import measure
     from sensor.pneumatic.experiment import run as run_experiment
-    from sensor.pneumatic.loop_metrics import metrics
 
     setup, notes = _setup(args)
     for note in notes:
         print(f"dacm loop: {note}", file=sys.stderr)
     with counting("loop", args.quiet) as bar:
         ds = run_experiment(setup, progress=lambda k, n: bar(k, n, "control periods"))
-    m = metrics(ds, setup.ref)
+    m = measure(setup, ds)
     result = {"controller": setup.controller, "observer": setup.observer, "reference": setup.reference,
               "amplitude_N": setup.amplitude_N, "offset_N": setup.offset_N, "line_length_m": setup.line_length_m,
               "valve": setup.valve, "sensor": args.sensor or "load cell", "duration_s": setup.duration_s,
@@ -202,6 +159,8 @@ def _status_line(m: dict) -> str:
     amplitude, or unsettled with the advice."""
     if m["limit_cycle"]:
         return f"limit cycle at {m['limit_cycle_hz']:.3g} Hz, amplitude {m['limit_cycle_amplitude_N']:.3g} N"
+    if m.get("settled_by") == "noise_free_twin":
+        return f"settled by its noise-free twin, its own blocks {100 * m['noise_block_change']:.0f} % apart"
     return "settled" if m["settled"] else "NOT settled, run longer"
 
 

@@ -225,6 +225,7 @@ SMC_PHI_N = 20.0                 # boundary-layer width (N), the reference ampli
 SMC_LAMBDA_PER_S = 2.0
 OUTER_RATE_FRACTION = 0.75       # lambda + h_bar k_p1 = 0.75 w_L
 OUTER_LAMBDA_PER_S = 10.0
+OUTER_INTEGRAL_PER_S = 1.0       # k_i1, the outer loop's integral gain (LineModel's default)
 FLOW_DAMPING_RATIO = 1.0         # k_m = 2 zeta w_L
 INNER_SAMPLE_GAIN = 0.4          # k_p2 L / (2 c) at the longest design line
 INNER_DESIGN_LENGTH_M = 10.0     # the longest line of chapter V: one k_p2 for every line up to it
@@ -273,7 +274,8 @@ def smc_gains(plant, slope_fraction: float = SMC_SLOPE_FRACTION) -> dict:
     return {"lam_per_s": SMC_LAMBDA_PER_S, "eta_N_s": slope * SMC_PHI_N, "phi_N": SMC_PHI_N}
 
 
-def line_model_gains(plant, variant: str = "thesis", outer_fraction: float = OUTER_RATE_FRACTION) -> dict:
+def line_model_gains(plant, variant: str = "thesis", outer_fraction: float = OUTER_RATE_FRACTION,
+                     outer_integral_per_s: float = OUTER_INTEGRAL_PER_S) -> dict:
     """Line-model controller gains for the plant's lines (section 5.4.2: inner loop first, one
     inner gain set for all lengths; outer loop per length).  The thesis gives no numbers, only
     the procedure; these rules stand in for its hand tuning.
@@ -293,15 +295,16 @@ def line_model_gains(plant, variant: str = "thesis", outer_fraction: float = OUT
     * k_p1 = (0.75 w_L - lambda) / h_bar (>= 0), lambda = 10 /s: the nominal outer-loop rate
       lambda + h_bar k_p1 (eq 71) is three quarters of the line mode, so the outer loop stays
       below the line it drives (h_bar at 2 m is 19 times that at 10 m); ``outer_fraction``
-      another fraction (the tuning search of :mod:`.tuning`, inner loop held)."""
+      another fraction (the tuning search of :mod:`.tuning`, inner loop held).
+    * k_i1 = 1 /s (``outer_integral_per_s``; the tuning search also tries 0)."""
     if variant not in ("thesis", "damped"):
         raise SensorInputError(f"line-model gain variant = {variant!r}: must be thesis or damped")
     ld = line_dynamics(plant)
     kp1 = max(0.0, (outer_fraction * ld.natural_rad_s - OUTER_LAMBDA_PER_S) / ld.h_bar_per_s)
     kp2 = 2 * INNER_SAMPLE_GAIN * ld.speed_of_sound_m_s / max(ld.length_m, INNER_DESIGN_LENGTH_M)
     km = 2 * FLOW_DAMPING_RATIO * ld.natural_rad_s if variant == "damped" else 0.0
-    return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "kp2_per_s": kp2, "ki2_per_s2": kp2 * kp2 / 4,
-            "flow_rate_per_s": km}
+    return {"lam_per_s": OUTER_LAMBDA_PER_S, "kp1": kp1, "ki1_per_s": outer_integral_per_s, "kp2_per_s": kp2,
+            "ki2_per_s2": kp2 * kp2 / 4, "flow_rate_per_s": km}
 
 
 # --- controllers ----------------------------------------------------------------------------------

@@ -42,9 +42,10 @@ from sensor.pneumatic.controllers import (
 )
 from sensor.pneumatic.cylinder import Cylinder, Environment, mass_spring_damper
 from sensor.pneumatic.lines import make_line
+from sensor.pneumatic.loop_metrics import metrics
 from sensor.pneumatic.observer import OBSERVER_KINDS, ObserverModel, PressureObserver
 from sensor.pneumatic.plant import Plant
-from sensor.pneumatic.sensors import Sensors
+from sensor.pneumatic.sensors import Sensors, ideal_sensors
 from sensor.pneumatic.simulate import simulate
 from sensor.pneumatic.valve import VALVES
 
@@ -101,6 +102,7 @@ class Setup:
     coulomb_N: float = Cylinder.coulomb_N   # sliding (Coulomb) friction F_c (N)
     spool_bandwidth_Hz: float = math.inf    # first-order spool; inf: ideal spool (the thesis)
     energy: bool = False             # chamber energy equation (wall h A = ENERGY_WALL_W_K) instead of eq 15
+    sensor_noise: bool = True        # False: ideal default sensors (the noise-free twin of loop_metrics.classify)
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -207,7 +209,9 @@ def run(setup: Setup, rate_Hz: float = 1000.0, progress=None) -> xr.Dataset:
     dt = 1.0 / rate_Hz
     ctrl = make_controller(setup, model, dt, plant)
     check_capacity(setup, model)
-    sensors = Sensors() if setup.force_sensor is None else Sensors(force=setup.force_sensor)
+    sensors = Sensors() if setup.sensor_noise else ideal_sensors()
+    if setup.force_sensor is not None:
+        sensors = replace(sensors, force=setup.force_sensor)
     ds = simulate(plant, ctrl, setup.duration_s, rate_Hz, sensors, substep_s=setup.substep_s, progress=progress)
     rows = np.full((ds.sizes["time"], len(ctrl.channels)), np.nan)
     rows[:len(ctrl.rows)] = np.asarray(ctrl.rows, float)
@@ -225,3 +229,69 @@ def run(setup: Setup, rate_Hz: float = 1000.0, progress=None) -> xr.Dataset:
                                          if isinstance(v, (int, float))})})
     return ds
 
+
+
+def measure(setup: Setup, ds: xr.Dataset) -> dict:
+    """:func:`~sensor.pneumatic.loop_metrics.metrics` of a run of ``setup``; when the run is
+    neither settled nor a limit cycle, its noise-free twin (``sensor_noise`` off) is run and
+    consulted (:func:`~sensor.pneumatic.loop_metrics.classify`)."""
+    m = metrics(ds, setup.ref)
+    if m["status"] == "unsettled" and setup.sensor_noise:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", CapacityWarning)   # the run itself has warned already
+            m = metrics(ds, setup.ref, twin=run(replace(setup, sensor_noise=False)))
+    return m
+
+
+def physics_from_flags(stiction: float, coulomb: float | None, spool_bandwidth: float, energy: bool) -> dict:
+    """The Setup fields of ``dacm loop``'s --stiction, --coulomb (None: the cylinder's default),
+    --spool-bandwidth and --energy, checked with the flags' names in the messages."""
+    coulomb = Cylinder.coulomb_N if coulomb is None else coulomb
+    for flag, value in (("--stiction", stiction), ("--coulomb", coulomb)):
+        if not (math.isfinite(value) and 0 <= value <= MAX_FRICTION_N):
+            raise SensorInputError(f"{flag} {value!r}: must be a finite force in [0, {MAX_FRICTION_N:g}] N")
+    if 0 < stiction < coulomb:
+        raise SensorInputError(f"--stiction {stiction!r}: must be 0 (no stick-slip) or >= the Coulomb friction "
+                               f"{coulomb:g} N")
+    if not (spool_bandwidth > 0 and not math.isnan(spool_bandwidth)):
+        raise SensorInputError(f"--spool-bandwidth {spool_bandwidth!r}: must be a positive number of Hz")
+    return {"stiction_N": stiction, "coulomb_N": coulomb, "spool_bandwidth_Hz": spool_bandwidth, "energy": bool(energy)}
+
+
+def setup_from_flags(controller: str, observer: str, reference: str, amplitude: float | None, offset: float | None,
+                     line_length: float, segments: int, valve: str | None, sensor: str | None,
+                     duration: float | None, physics: dict) -> tuple[Setup, list[str]]:
+    """``dacm loop``'s single-run Setup from its flags (checked with the flags' names; ``physics``
+    from :func:`physics_from_flags`) and the notes to print: the valve defaults to the thesis'
+    (Festo for PI/impedance, Enfield otherwise); a DACM ``sensor`` puts a push-only 2 kN/m spring
+    in series with it and a reference within its range."""
+    from sensor.pneumatic.controllers import MAX_REFERENCE_N
+    from sensor.pneumatic.cylinder import spring_contact
+    from sensor.pneumatic.dacm_sensor import DacmForceSensor, sensor_reference, series_spring
+    from sensor.pneumatic.lines import MAX_LENGTH_M
+
+    if controller not in CONTROLLERS:
+        raise SensorInputError(f"--controller {controller!r}: must be one of {', '.join(CONTROLLERS)}")
+    if observer not in OBSERVER_KINDS:
+        raise SensorInputError(f"--observer {observer!r}: must be one of {', '.join(OBSERVER_KINDS)}")
+    if not (math.isfinite(line_length) and 0 < line_length <= MAX_LENGTH_M):
+        raise SensorInputError(f"--line-length {line_length!r}: must be a positive finite number <= "
+                               f"{MAX_LENGTH_M:g} (m)")
+    for flag, value in (("--amplitude", amplitude), ("--offset", offset)):
+        if value is not None and not (math.isfinite(value) and abs(value) <= MAX_REFERENCE_N):
+            raise SensorInputError(f"{flag} {value!r}: must be a finite force within +-{MAX_REFERENCE_N:g} N")
+    valve = valve or ("festo-mpye-5-1/8-lf" if controller in ("pi", "impedance") else "enfield-lh05")
+    kw, notes, amp, off = {}, [], 24.0, 0.0
+    if sensor:
+        fs = DacmForceSensor(sensor)
+        kw = {"force_sensor": fs, "environment": spring_contact(series_spring(2000.0, fs.stiffness_N_m), 0.025)}
+        amp, off = sensor_reference(fs.range_N)
+        if amplitude is None or offset is None:
+            notes.append(f"note: reference within the sensor's {fs.range_N:.3g} N range: amplitude "
+                         f"{amplitude if amplitude is not None else amp:.3g} N, offset "
+                         f"{offset if offset is not None else off:.3g} N (set --amplitude/--offset to change)")
+    setup = Setup(controller=controller, observer=observer, reference=reference,
+                  amplitude_N=amp if amplitude is None else amplitude, offset_N=off if offset is None else offset,
+                  line_length_m=line_length, segments=segments, valve=valve,
+                  duration_s=settling_duration_s(reference) if duration is None else duration, **physics, **kw)
+    return setup, notes

@@ -27,10 +27,11 @@ from sensor.pneumatic.experiment import (
     THESIS_STICTION_N,
     Setup,
     build_plant,
+    measure,
     run,
     settling_duration_s,
 )
-from sensor.pneumatic.loop_metrics import classify, metrics, per_cycle, window
+from sensor.pneumatic.loop_metrics import classify, per_cycle, window
 from sensor.pneumatic.observer import ObserverModel, PressureObserver
 from sensor.pneumatic.tuning import tune
 
@@ -41,14 +42,15 @@ ESTIMATOR_HEADINGS = {"observer": "observer", "open_loop": "open loop (standard 
 #: slowly with the substep (the switching law's fast content at the port; 0.5 Hz: 2.24 kPa^2 at
 #: 0.1 ms, 1.73 at 20 us, 1.66 at 10 us, measured), so these runs take 20 us, within 5 % of 10 us.
 SMC_SUBSTEP_S = 2.0e-5
-ROW_KEYS = ("status", "settled", "limit_cycle", "limit_cycle_hz", "limit_cycle_amplitude_N")
+ROW_KEYS = ("status", "settled", "limit_cycle", "limit_cycle_hz", "limit_cycle_amplitude_N", "settled_by",
+            "noise_block_change")
 
 
 def _row(setup: Setup, **extra) -> tuple[dict, xr.Dataset]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CapacityWarning)
         ds = run(setup)
-    out = {**extra, **metrics(ds, setup.ref), "gains": json.loads(ds.attrs["gains"]),
+    out = {**extra, **measure(setup, ds), "gains": json.loads(ds.attrs["gains"]),
            "warnings": [str(w.message) for w in caught]}
     return out, ds
 

@@ -10,7 +10,7 @@ import math
 
 from sensor.pneumatic.loop_metrics import SETTLING_RULE, status_text
 from sensor.pneumatic.studies import CH5_CONTROLLERS, CH5_HEADINGS, CH5_PRIMARY, ESTIMATOR_HEADINGS, TABLE4, status_of
-from sensor.pneumatic.tuning import TUNING_RULE
+from sensor.pneumatic.tuning import SETTLING_BAND, TUNING_RULE
 
 
 def _verdict(claim: str, ok: bool, criterion: str, value: str, cells=()) -> dict:
@@ -146,7 +146,8 @@ def _fmt(x: float) -> str:
 
 def _cells_status(row: dict, keys) -> str:
     """'settled', or each run that is not, with its status."""
-    notes = [f"{CH5_HEADINGS[k]}: {status_text(row[k])}" for k in keys if not row[k]["settled"]]
+    notes = [f"{CH5_HEADINGS[k]}: {status_text(row[k])}" for k in keys
+             if not row[k]["settled"] or row[k].get("settled_by") == "noise_free_twin"]
     return "; ".join(notes) if notes else "settled"
 
 
@@ -174,12 +175,14 @@ def observer_tables(res: dict) -> str:
 def _gain_text(g: dict) -> str:
     if "eta_N_s" in g:
         return f"eta {g['eta_N_s']:.4g} N/s, phi {g['phi_N']:.3g} N, lambda {g['lam_per_s']:.3g} /s"
-    return (f"k_p1 {g['kp1']:.3g}, lambda {g['lam_per_s']:.3g} /s, k_p2 {g['kp2_per_s']:.3g} /s, "
+    return (f"k_p1 {g['kp1']:.3g}, k_i1 {g['ki1_per_s']:.3g} /s, lambda {g['lam_per_s']:.3g} /s, "
+            f"k_p2 {g['kp2_per_s']:.3g} /s, "
             f"k_i2 {g['ki2_per_s2']:.4g} /s^2, k_m {g['flow_rate_per_s']:.3g} /s")
 
 
 def _step_text(c: dict) -> str:
-    ts = "not settled" if c["settling_time_s"] is None else f"{c['settling_time_s']:.3g} s"
+    ts = (f"not settled (last second's error RMS {c['tail_rms_N']:.3g} N, band {100 * SETTLING_BAND:g} %)"
+          if c["settling_time_s"] is None else f"{c['settling_time_s']:.3g} s")
     return f"t_s(2 %) {ts}, overshoot {100 * c['overshoot']:.1f} % (zeta {c['damping_ratio']:.2f})"
 
 

@@ -34,7 +34,8 @@ def test_line_model_json_has_the_virtual_input_mse(capsys):
     # the force (0.11 N^2), far below the 50 N^2 of doing nothing
     assert out["valve"] == "enfield-lh05" and 0 < out["virtual_input_mse_N2"] < 1.0
     assert out["force_mse_N2"] < 5.0
-    assert set(out["gains"]) == {"lam_per_s", "kp1", "kp2_per_s", "ki2_per_s2", "flow_rate_per_s"}   # section 5.4.2
+    assert set(out["gains"]) == {"lam_per_s", "kp1", "ki1_per_s", "kp2_per_s", "ki2_per_s2",
+                                 "flow_rate_per_s"}   # section 5.4.2
     assert out["gains"]["flow_rate_per_s"] > 0                 # ours: line-flow damping k_m
     assert out["line_model_pressure_mse_kPa2"] < out["pressure_mse_kPa2"]     # Figure 37's claim
 
@@ -128,3 +129,17 @@ def test_default_duration_settles(capsys):
     assert main(["loop", "--line-length", "1", "--segments", "4", "--no-plots", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["duration_s"] == 30.0 and out["settled"] is True and out["window_s"] == [28.0, 30.0]
+
+
+def test_a_single_run_is_named_by_the_same_rule_as_the_studies(capsys):
+    # dacm loop measures a run as the studies do (experiment.measure): the damped line model at
+    # 7.25 m, 0.5 Hz fails the 10 % block bound on its sensors' noise and is settled by its
+    # noise-free twin, which the JSON and the console say
+    args = ["loop", "--controller", "line-model-damped", "--observer", "standard", "--reference", "sine:0.5Hz",
+            "--no-plots"]
+    assert main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "settled" and out["settled_by"] == "noise_free_twin" and out["noise_block_change"] > 0.10
+    assert out["settling"]["noise_free_twin"]["block_change"] < 0.01
+    assert main(args) == 0
+    assert "settled by its noise-free twin, its own blocks" in capsys.readouterr().out
