@@ -138,7 +138,9 @@ def controller_mse_figure(res) -> Figure:
         t4 = [(L, get[(L, ref)]["thesis_table4"]["mse1_N2"]) for L in lengths if get[(L, ref)]["thesis_table4"]]
         a.plot([x[0] for x in t4], [x[1] for x in t4], "k^--", ms=5, lw=0.8, label="Table 4 (thesis, measured)")
         a.set(yscale="log", xlabel="line length (m)", ylabel="MSE_1 (N^2)", title=f"Figure 32: {ref}")
-        a.legend(fontsize=8)
+    # legends above the panels, clear of the curves: one for the Figure 32 panels (the same
+    # entries), one for Figure 37
+    fig.legend(*ax[0].get_legend_handles_labels(), loc="outside upper left", ncols=3, fontsize=8)
     a = ax[-1]
     ref = refs[-1]
     a.plot(lengths, [get[(L, ref)]["line_model_thesis"]["pressure_mse_kPa2"] for L in lengths], "o-", color="tab:orange",
@@ -148,7 +150,7 @@ def controller_mse_figure(res) -> Figure:
     a.plot(lengths, [get[(L, ref)]["line_model_damped"]["line_model_pressure_mse_kPa2"] for L in lengths], "s-",
            color=CONTROLLER_COLOURS["line_model_damped"], label="line model (ours)")
     a.set(yscale="log", xlabel="line length (m)", ylabel="pressure MSE (kPa^2)", title=f"Figure 37: {ref}")
-    a.legend(fontsize=8)
+    fig.legend(*a.get_legend_handles_labels(), loc="outside upper right", ncols=1, fontsize=8)
     return fig
 
 
