@@ -8,7 +8,6 @@ and the reason for every infeasible cell, with the run's settings as attributes.
 from __future__ import annotations
 
 import contextlib
-
 import hashlib
 import json
 from pathlib import Path

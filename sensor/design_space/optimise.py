@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize
 from scipy.stats import qmc
+from threadpoolctl import threadpool_limits
 
 from geometry.checks import check_design, phi1_limit_deg
 from geometry.errors import GeometryError
@@ -163,6 +164,16 @@ class DesignProblem:
 
     def from_unit(self, u) -> np.ndarray:
         return self.lower + np.asarray(u, dtype=float) * (self.upper - self.lower)
+
+    def angle_grid(self, counts) -> np.ndarray:
+        """The angles (rows: phi1 [, phi2], deg) of a grid of ``counts[i]`` points along each
+        angle's bounds, those beyond the domain's phi2 edge left out."""
+        k = self.n_angles
+        axes = [np.linspace(a, b, n) for a, b, n in zip(self.lower[:k], self.upper[:k], counts)]
+        angles = np.array(np.meshgrid(*axes, indexing="ij")).reshape(k, -1).T
+        if self.body == "proposed":
+            angles = angles[angles[:, 1] <= [self.domain.phi2_edge(p) for p in angles[:, 0]]]
+        return angles
 
     def design(self, z, name: str = "optimised") -> Design:
         """The design of variables ``z`` (angles in deg, then log thickness of each group)."""
@@ -365,8 +376,6 @@ def _local_search(args) -> tuple[np.ndarray, list[Point], int]:
     runs on one thread, as in the pool's workers: with more, its sums are ordered otherwise,
     and SLSQP's iterates (and the answer, by a quantum of the written values) depended on
     where the search ran."""
-    from threadpoolctl import threadpool_limits
-
     problem, u0, objective = args
     with threadpool_limits(1):
         loc = _Local(problem, objective)
@@ -410,11 +419,7 @@ def scale_to_range(problem: DesignProblem, Z, iterations: int = 12, tolerance: f
 def equal_hinge_start(problem: DesignProblem, n: int = 8, counter: list | None = None) -> np.ndarray | None:
     """The best feasible equal-hinge body of the range on an n x n grid of angles (n for the
     basis body), as variables; None if no cell of the grid is feasible."""
-    lo, hi = problem.lower[:problem.n_angles], problem.upper[:problem.n_angles]
-    axes = [np.linspace(a, b, n) for a, b in zip(lo, hi)]
-    angles = np.array(np.meshgrid(*axes, indexing="ij")).reshape(problem.n_angles, -1).T
-    if problem.body == "proposed":
-        angles = angles[angles[:, 1] <= [problem.domain.phi2_edge(p) for p in angles[:, 0]]]
+    angles = problem.angle_grid([n] * problem.n_angles)
     t0 = math.log(math.sqrt(problem.hinge_min_mm * problem.hinge_max_mm))
     Z = scale_to_range(problem, np.hstack([angles, np.full((len(angles), len(problem.pairs)), t0)]),
                        counter=counter)

@@ -38,12 +38,8 @@ REACH_SCAN_STEP_DEG, REACH_POLISH, REACH_STARTS, STRESS_PASSES = 1.0, 4, 4, 3
 def scan_angles(problem: DesignProblem) -> np.ndarray:
     """The feasible angles on a REACH_SCAN_STEP_DEG grid (rows: phi1 [, phi2], deg)."""
     k = problem.n_angles
-    lo, hi = problem.lower[:k], problem.upper[:k]
-    axes = [np.linspace(a, b, int(np.ceil((b - a) / REACH_SCAN_STEP_DEG)) + 1) for a, b in zip(lo, hi)]
-    angles = np.array(np.meshgrid(*axes, indexing="ij")).reshape(k, -1).T
-    if problem.body == "proposed":
-        angles = angles[angles[:, 1] <= [problem.domain.phi2_edge(p) for p in angles[:, 0]]]
-    return angles
+    spans = problem.upper[:k] - problem.lower[:k]
+    return problem.angle_grid([int(np.ceil(w / REACH_SCAN_STEP_DEG)) + 1 for w in spans])
 
 
 def softest_scan(problem: DesignProblem, angles: np.ndarray) -> list[Point]:

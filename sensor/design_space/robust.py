@@ -96,10 +96,10 @@ def _centred(problem: DesignProblem, d: Design, tol: Tolerance, draws: int, seed
         z[k:] = np.clip(z[k:] + shift, problem.lower[k:], problem.upper[k:])
         d1 = written(problem, problem.design(z), name)
         t1 = tolerance(d1, problem.process, draws, seed, problem.travel_mm, problem.law)
-        if _violation(problem, t1) < best[0]:
-            best = (_violation(problem, t1), d1, t1)
-        else:
+        miss = _violation(problem, t1)
+        if miss >= best[0]:
             break
+        best = (miss, d1, t1)
     return best[1], best[2]
 
 
