@@ -89,6 +89,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"    hinge {h:>2}: {fe:7.2f} / {out['beam']['hinge_stress_MPa'][h]:7.2f} / "
               f"{out['errors_pct']['hinge_stress_MPa'][h]:+6.1f}   peak: {out['fe']['hinge_peak_stress_MPa'][h]:6.1f}"
               f" / {out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
+    if out["stability"] and not out["stability"]["stable"]:
+        print(f"  the continuum state at {args.target_output:g} mm is unstable (lowest tangent eigenvalue "
+              f"{out['stability']['lowest_tangent_eigenvalue_N_per_mm']:.3g} N/mm with the punch held): "
+              "the part buckles sideways before this travel")
     if paths:
         print(f"wrote {args.out / paths[0].name}")
     return 0

@@ -19,8 +19,9 @@ Boundary conditions follow the beam model (:func:`geometry.topology.build_beam_m
 
 Linear by default; ``nonlinear=True`` solves the geometrically nonlinear problem (total
 Lagrangian, St Venant-Kirchhoff: small strains, large rotations) by Newton's method in input
-travel increments until the output reaches ``target_output_mm``. Units: mm, N, MPa, mJ.
-Needs gmsh and CadQuery (imported when called).
+travel increments until the output reaches ``target_output_mm``, and checks that the state
+reached is stable (:func:`lowest_tangent_eigenvalue`: Newton follows the symmetric path
+through a sideways bifurcation without noticing). Units: mm, N, MPa, mJ. Needs gmsh and CadQuery (imported when called).
 """
 
 from __future__ import annotations
@@ -81,6 +82,11 @@ class ContinuumResult:
     triangles: np.ndarray
     displacement_mm: np.ndarray
     von_mises_MPa: np.ndarray
+    #: nonlinear only (else None): the lowest eigenvalue (N/mm) of the tangent stiffness at
+    #: the target with the punch held, and whether that state is stable
+    #: (:func:`lowest_tangent_eigenvalue`)
+    lowest_tangent_eigenvalue_N_per_mm: float | None = None
+    stable: bool | None = None
 
 
 # --- geometry and mesh ---------------------------------------------------------------------
@@ -373,12 +379,12 @@ def neck_points(design: Design) -> dict[int, np.ndarray]:
     return out
 
 
-def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9, max_iter: int = 25):
-    """Total-Lagrangian equilibrium (St Venant-Kirchhoff) at an input travel, from u."""
-    from skfem import BilinearForm, LinearForm, asm
+def _svk_forms(lam: float, mu: float):
+    """The total-Lagrangian St Venant-Kirchhoff forms: (tangent stiffness, internal force),
+    per unit sheet thickness, at the displacement ``u`` passed to :func:`skfem.asm`."""
+    from skfem import BilinearForm, LinearForm
 
     I = np.eye(2)[:, :, None, None]
-    lam, mu = pb.lam, pb.mu
 
     def kinematics(w):
         F = I + w["u"].grad
@@ -400,6 +406,43 @@ def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9,
         F, S = kinematics(w)
         return np.einsum("ijab,ijab->ab", np.einsum("ikab,kjab->ijab", F, S), v.grad)
 
+    return tangent, internal
+
+
+#: A state is unstable when the lowest eigenvalue of its tangent stiffness (held dofs
+#: removed) is below -UNSTABLE_EIGENVALUE x the mean diagonal of that stiffness. Round-off
+#: moves the eigenvalues of a symmetric matrix by about 1e-16 of its norm (Weyl's
+#: inequality), a few times its mean diagonal here; the lowest eigenvalues of the continuum
+#: table's states at 1 mm are 3e-8 to 1e-7 of it, of either sign.
+UNSTABLE_EIGENVALUE = 1e-12
+
+
+def lowest_tangent_eigenvalue(pb: _Problem, u: np.ndarray) -> tuple[float, bool]:
+    """The lowest eigenvalue (N/mm) of the tangent stiffness at the state u with the clamp
+    and the punch held (the guided punch of the test, driven by its travel), and whether
+    the state is stable (see :data:`UNSTABLE_EIGENVALUE`). A negative eigenvalue means the
+    body buckles or snaps before it reaches u: the Newton path of :func:`verify` follows the
+    symmetric branch through the bifurcation without noticing (an equilibrium is stable when
+    the second variation of the potential energy, the tangent stiffness, is positive
+    definite: Bazant & Cedolin, Stability of Structures, 1991)."""
+    from skfem import asm
+
+    tangent, _ = _svk_forms(pb.lam, pb.mu)
+    K = asm(tangent, pb.basis, u=pb.basis.interpolate(u)) * pb.depth
+    free = np.ones(K.shape[0], bool)
+    free[np.concatenate([pb.fixed, pb.punch_x, pb.punch_y])] = False
+    Kf = K[free][:, free].tocsc()
+    Kf = 0.5 * (Kf + Kf.T)          # symmetric up to round-off (hyperelastic)
+    scale = float(Kf.diagonal().mean())
+    low = float(spla.eigsh(Kf, k=1, sigma=-1e-6 * scale, which="LM", return_eigenvectors=False)[0])
+    return low, low > -UNSTABLE_EIGENVALUE * scale
+
+
+def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9, max_iter: int = 25):
+    """Total-Lagrangian equilibrium (St Venant-Kirchhoff) at an input travel, from u."""
+    from skfem import asm
+
+    tangent, internal = _svk_forms(pb.lam, pb.mu)
     idx, val = _prescribed(pb, travel_mm)
     u = u.copy()
     u[idx] = val
@@ -434,7 +477,8 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     corners as a jet of that width does (0: the drawn profile of the DXF, sharp corners);
     a larger drawn ``root_radius_mm`` of the design rounds them with that radius instead
     (every re-entrant corner, as :func:`geometry.topology.root_radius_mm` gives the roots).
-    Results are reported at the output travel ``target_output_mm`` (linear: scaled to it).
+    Results are reported at the output travel ``target_output_mm`` (linear: scaled to it);
+    nonlinear results also say whether that state is stable.
     """
     n_across = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
     if n_across is None or not (math.isfinite(n_across) and n_across > 0):
@@ -463,6 +507,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         raise SensorInputError(f"design {design.name!r}: the mirror moves up ({out_lin:.3g} mm per mm "
                                "of input): no output travel to report")
     travel = target_output_mm / out_lin
+    low = stable = None
     if not nonlinear:
         u = u * travel
         force = -float((pb.K @ u)[pb.punch_y].sum())
@@ -470,6 +515,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     else:
         u, travel, force = _nonlinear_to_target(pb, u * travel, travel, target_output_mm, increments)
         energy = _svk_energy(pb, u)
+        low, stable = lowest_tangent_eigenvalue(pb, u)
     out = -float(pb.out_row @ u)
     G = _corner_gradients(pb, u)
     vm = _von_mises_of(pb, G, design.material.nu, plane_strain, nonlinear)
@@ -487,7 +533,8 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         kerf_mm=float(kerf), plane_strain=plane_strain, nonlinear=nonlinear,
         mesh=str(mesh), elements_across=n_across, size_mm=_size_function(design, n_across)[1],
         n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,
-        displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm)
+        displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm,
+        lowest_tangent_eigenvalue_N_per_mm=low, stable=stable)
 
 
 def _nonlinear_to_target(pb, u_lin, travel_lin, target, increments):
@@ -666,7 +713,8 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
 
 def verification_to_dict(v: Verification) -> dict:
     """The JSON form of a :class:`Verification` (keys ``fe``, ``beam``, ``errors_pct``,
-    ``convergence``, ``mesh``, ``options``)."""
+    ``convergence``, ``mesh``, ``options``, ``stability``: null when linear, else whether the
+    finest mesh's state at the target is stable)."""
     def hinges(d):
         return {str(h): x for h, x in d.items()}
 
@@ -692,4 +740,6 @@ def verification_to_dict(v: Verification) -> dict:
                  "hinge_element_size_mm": fe.size_mm, "elements": fe.n_elements, "dofs": fe.n_dofs},
         "options": {"plane_strain": fe.plane_strain, "nonlinear": fe.nonlinear,
                     "output_travel_mm": fe.output_travel_mm},
+        "stability": None if fe.stable is None else {
+            "stable": fe.stable, "lowest_tangent_eigenvalue_N_per_mm": fe.lowest_tangent_eigenvalue_N_per_mm},
     }

@@ -98,6 +98,7 @@ def test_nonlinear_solve_tends_to_the_linear_one_at_small_travel():
     nl = verify(d, mesh=2.0, target_output_mm=1e-3, nonlinear=True, increments=1)
     assert nl.k_out_N_per_mm == pytest.approx(lin.k_out_N_per_mm, rel=1e-3)
     assert nl.strain_energy_mJ == pytest.approx(lin.strain_energy_mJ, rel=2e-3)
+    assert lin.stable is None and nl.stable is True and nl.lowest_tangent_eigenvalue_N_per_mm > 0
 
 
 def test_clamping_the_whole_base_plate_barely_moves_the_answer(sample_b):
@@ -188,3 +189,44 @@ def test_peak_is_at_the_fillet_and_above_the_neck_stress():
         assert peak >= r.hinge_neck_stress_MPa[h] * (1 - 1e-9), h
         t = d.hinge_thickness_mm[h - 1]
         assert -0.05 < r.hinge_peak_station_mm[h] < 0.4 + t, h
+
+
+def _strip_problem(length_mm: float, width_mm: float, E: float = 2300.0, nu: float = 0.35):
+    """A straight strip standing on its clamped bottom edge, its top edge held sideways and
+    pushed down (the punch of :func:`sensor.mechanics.continuum._problem`), plane stress."""
+    from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
+    from skfem.models.elasticity import linear_elasticity
+
+    from sensor.mechanics.continuum import _lame, _Problem
+
+    mesh = MeshTri.init_tensor(np.linspace(0, width_mm, 5), np.linspace(0, length_mm, 121))
+    basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
+    lam, mu = _lame(E, nu, False)
+    K = asm(linear_elasticity(lam, mu), basis)
+    fixed = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] < 1e-9)).all()
+    top = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] > length_mm - 1e-9))
+    return _Problem(basis, K, fixed, top.all("u^2"), top.all("u^1"), np.zeros(K.shape[0]), lam, mu, 1.0)
+
+
+@pytest.mark.parametrize("factor, stable", [(0.99, True), (1.01, False)])
+def test_stability_check_finds_euler_buckling_of_a_clamped_strip(factor, stable):
+    """A strip clamped at both ends (no sway) and shortened buckles at the Euler load
+    4 pi^2 E I / L^2, i.e. axial strain pi^2 / 3 (t / L)^2, less the shear correction
+    1 / (1 + P / (k G A)) with k = 5/6 (Timoshenko & Gere, Theory of Elastic Stability:
+    the effect of shear on the critical load): 1.2 % at L / t = 30. The symmetric Newton path goes straight through the
+    bifurcation; the tangent's lowest eigenvalue changes sign there (at 1.001 x this strain
+    by bisection). 1 % either side of it covers the strain measure (Green vs engineering,
+    0.4 % at these strains), the clamps' Poisson restraint and the mesh (4 quadratic
+    elements across)."""
+    from sensor.mechanics.continuum import _newton_tl, _solve_dirichlet, _prescribed, lowest_tangent_eigenvalue
+
+    L, t, E, nu = 30.0, 1.0, 2300.0, 0.35
+    pb = _strip_problem(L, t, E, nu)
+    euler = math.pi**2 / 3 * (t / L) ** 2
+    strain = euler / (1 + E * euler / (5 / 6 * E / (2 * (1 + nu))))
+    travel = factor * strain * L
+    idx, val = _prescribed(pb, travel)
+    u = _solve_dirichlet(pb.K, np.zeros(pb.K.shape[0]), idx, val)
+    u, _ = _newton_tl(pb, u, travel)
+    low, ok = lowest_tangent_eigenvalue(pb, u)
+    assert ok is stable, low
