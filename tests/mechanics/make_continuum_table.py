@@ -18,7 +18,8 @@ Two parts:
   stated convergence, the per-hinge FE peak von Mises
   stress at the root fillets at full scale (finest mesh, with its own three-mesh study),
   the nonlinear solve at 1 mm output on the coarsest of the three meshes (with the linear
-  solve of that same mesh beside it, so the mesh error can be taken out), and the seconds
+  solve of that same mesh beside it, so the mesh error can be taken out, and whether the
+  state reached is stable: ``--nonlinear-only`` recomputes just that part), and the seconds
   each took. ``held_out`` marks the entries no fit may use: in each family every third
   entry (index 2, 5, 8, ...), a rule fixed before any fit.
 
@@ -183,7 +184,7 @@ def entry(family: str, held_out: bool, design: Design) -> dict:
     fine = runs[-1]
     peak = {h: richardson([r.hinge_stress_MPa[h] for r in runs]) for h in fine.hinge_stress_MPa}
     t1 = time.time()
-    nl = verify(design, mesh=NONLINEAR_MESH, nonlinear=True)
+    nonlinear = nonlinear_entry(design, coarsest)
     t2 = time.time()
     return {
         "family": family, "held_out": held_out, "design": design_to_dict(design),
@@ -198,17 +199,27 @@ def entry(family: str, held_out: bool, design: Design) -> dict:
         "hinge_peak_stress_study": {str(h): _study(c) for h, c in peak.items()},
         "hinge_peak_station_mm": _hinges(fine.hinge_peak_station_mm),
         "hinge_neck_stress_MPa": _hinges(fine.hinge_neck_stress_MPa),
-        "nonlinear_1mm": {
-            "elements_across": NONLINEAR_MESH,
+        "nonlinear_1mm": nonlinear,
+        "seconds": {"linear_three_meshes": round(t1 - t0, 1), "nonlinear": round(t2 - t1, 1)},
+    }
+
+
+def nonlinear_entry(design: Design, same_mesh) -> dict:
+    """The nonlinear solve at 1 mm output on the :data:`NONLINEAR_MESH` mesh, whether its
+    state is stable (the tangent's lowest eigenvalue with the punch held: the symmetric path
+    can pass a sideways bifurcation), and the linear solve of that same mesh (``same_mesh``,
+    a :class:`ContinuumResult` or the stored dict of one)."""
+    nl = verify(design, mesh=NONLINEAR_MESH, nonlinear=True)
+    same = same_mesh if isinstance(same_mesh, dict) else {
+        "amplification": same_mesh.amplification, "k_out_N_per_mm": same_mesh.k_out_N_per_mm}
+    return {"elements_across": NONLINEAR_MESH,
             "amplification": nl.amplification, "k_out_N_per_mm": nl.k_out_N_per_mm,
             "strain_energy_mJ": nl.strain_energy_mJ, "input_force_N": nl.input_force_N,
+            "stable": nl.stable, "lowest_tangent_eigenvalue_N_per_mm": nl.lowest_tangent_eigenvalue_N_per_mm,
             "hinge_peak_stress_MPa": _hinges(nl.hinge_stress_MPa),
             "hinge_peak_station_mm": _hinges(nl.hinge_peak_station_mm),
             "hinge_neck_stress_MPa": _hinges(nl.hinge_neck_stress_MPa),
-            "linear_same_mesh": {"amplification": coarsest.amplification,
-                                 "k_out_N_per_mm": coarsest.k_out_N_per_mm}},
-        "seconds": {"linear_three_meshes": round(t1 - t0, 1), "nonlinear": round(t2 - t1, 1)},
-    }
+            "linear_same_mesh": same}
 
 
 def _store(section: str, name: str, row: dict) -> None:
@@ -239,12 +250,25 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", help="compute only these (recomputed if present)")
     ap.add_argument("--cases", action="store_true", help="the drawn-profile cases instead of the entries")
     ap.add_argument("--shard", default="0/1", help="I/N: this process does every N-th entry from I")
+    ap.add_argument("--nonlinear-only", action="store_true",
+                    help="recompute only the nonlinear solve (and its stability) of stored entries")
     args = ap.parse_args()
     i, n = (int(x) for x in args.shard.split("/"))
     if args.cases:
         todo = {k: (k in NONLINEAR, d) for k, d in cases().items()}
         work = lambda a: fe_case(a[1], a[0])  # noqa: E731
         section = "cases"
+    elif args.nonlinear_only:
+        stored = json.loads(TABLE.read_text())["entries"]
+        todo = {k: v for k, v in entries().items() if k in stored}
+
+        def work(a):
+            row, t0 = dict(stored[a[2].name]), time.time()
+            row["nonlinear_1mm"] = nonlinear_entry(a[2], row["nonlinear_1mm"]["linear_same_mesh"])
+            row["seconds"] = {**row["seconds"], "nonlinear": round(time.time() - t0, 1)}
+            return row
+        section = "entries"
+        args.only = args.only or list(todo)
     else:
         todo = entries()
         work = lambda a: entry(*a)  # noqa: E731

@@ -19,12 +19,15 @@ Targets of the issue: k_out within 3 %, A within 1.5 % of the converged continuu
 stress within 15 %. The root rule's constants are fitted to the entries that are not held
 out (tests/mechanics/test_root_rule.py refits them).
 
+At 1 mm the continuum's state must also be stable (the tangent stiffness positive definite
+with the punch held; entries store it): where it is not, the part buckles sideways before
+1 mm, and the beam model must report that instability instead of numbers.
+
 Known disagreements, kept as strict expected failures with their numbers (CUT_MISSES,
-LINEAR_MISSES, NONLINEAR_MISSES): the drawn 03-03 cell next to the toggle (phi2 = 6 deg),
-where a 0.02 mm shift of a middle link's effective pivot moves A by 2 %; of the cut-part
-entries, a steep basis body with thick hinges on k_out, thick middle hinges on A, and the
-stiffening at 1 mm of three bodies (at most 4.3 %). Every other case meets both targets,
-held-out entries included.
+CUT_MISSES_1MM, LINEAR_MISSES, NONLINEAR_MISSES): the drawn 03-03 cell next to the toggle
+(phi2 = 6 deg), where a 0.02 mm shift of a middle link's effective pivot moves A by 2 %; of
+the 50 cut-part entries, 6 in the linear limit and 11 at 1 mm (see CUT_MISSES). Every other
+case meets both targets, held-out entries included.
 """
 
 import json
@@ -34,6 +37,7 @@ import pytest
 
 from geometry.params import design_from_dict
 from geometry.topology import build_beam_model
+from sensor.errors import InstabilityError, SnapThroughError
 from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
 from sensor.mechanics.solver import solve
 from sensor.mechanics.stress import hinge_stresses
@@ -70,12 +74,31 @@ def test_table_covers_presets_and_twelve_cells_of_both_hinge_sets():
 LINEAR_MISSES = {"03-03-28-6": "A +1.91 %"}
 NONLINEAR_MISSES = {"03-03-28-6": "A +3.28 %"}
 #: Cut-part entries the beam model misses (the issue's targets, 3 % on k_out and 1.5 % on
-#: A; strict: they fail if the model comes to meet them). A steep side lean with thick hinges
-#: (basis phi1 32.3 deg, 1.25 mm: the fillets at the plates' faces reach far along the acute
-#: side), thick middle hinges on A, and the geometric stiffening at 1 mm of three bodies.
-CUT_MISSES = {"basis-32.3-1.25": "k +3.59 %", "thick-22-17.2-1.4-0.6": "A -1.51 %"}
-CUT_MISSES_1MM = {"basis-32.3-1.25": "k +4.32 %", "thick-22-17.2-1.4-0.6": "k -3.34 %",
-                  "sample-b-kerf1.2": "k -3.32 %", "thick-28-20-1.0": "k -3.15 %"}
+#: A; strict: they fail if the model comes to meet them), 11 of the 50 entries:
+#: - steep basis bodies (phi1 32.3 deg; basis-unequal-0 at 26.8 deg, 1 mm only): the beam is
+#:   too stiff, in the side chains (with a 5 mm top plate, nearly rigid in both models, the
+#:   32.3-0.75 body still misses by +3.9 %; at phi1 15 deg the same test gives -2.3 %): the
+#:   root rule has no lean dependence that holds for both the basis and the DACM bodies;
+#: - DACMs near the toggle or with thick middle hinges, on A in the linear limit (1.51 to
+#:   2.94 %; like-4, phi2 10.4 deg, also on k_out);
+#: - at 1 mm, bodies whose A falls by 28-33 % over the stroke (like-4, thick-20-15: phi2
+#:   10-15 deg), where +10 % on one member group's compliance moves A at 1 mm by 6-10 %: the
+#:   response is ill-conditioned, no reduced model of a 1-2 % compliance accuracy can hold
+#:   1.5 % there; and the geometric stiffening of bodies with large fillets (kerf 1.2 mm) or
+#:   thick middle hinges (the beam stiffens 3-10 % less than the continuum).
+#: like-10's continuum state at 1 mm is unstable (it buckles sideways before: a negative
+#: tangent eigenvalue), which the beam model misses (it stays stable to 1.09 mm); like-11's
+#: is unstable too, and the beam says so (unstable beyond 0.88 mm): that entry passes.
+CUT_MISSES = {"basis-32.3-0.75": "k +4.42 %", "basis-32.3-1.25": "k +3.59 %",
+              "like-4-delrin": "k -3.17 %, A +2.94 %", "like-8-delrin": "A -1.52 %",
+              "like-11-abs": "A +1.94 %", "thick-22-17.2-1.4-0.6": "A -1.51 %"}
+CUT_MISSES_1MM = {"basis-32.3-0.75": "k +4.83 %", "basis-32.3-1.25": "k +4.32 %",
+                  "basis-unequal-0": "k +3.07 %",
+                  "like-10-delrin": "the continuum buckles before 1 mm, the beam stays stable to 1.09 mm",
+                  "like-4-delrin": "k +7.33 %, A -4.41 %", "like-6-delrin": "A +1.66 %",
+                  "like-9-delrin": "A +1.62 %", "sample-b-kerf1.2": "k -3.32 %",
+                  "thick-20-15-0.9-0.6-L1.6": "k -5.66 %, A +5.77 %",
+                  "thick-22-17.2-1.4-0.6": "k -3.34 %", "thick-28-20-1.0": "k -3.15 %"}
 
 
 def _cases(names, misses):
@@ -131,6 +154,7 @@ def test_entries_are_the_scripts_bodies_with_the_held_out_rule_and_converged():
         assert design_from_dict(row["design"]) == design and row["kerf_mm"] == design.kerf_mm
         assert (row["family"], row["held_out"]) == (family, held_out)
         assert row["converged"]["ok"], (name, row["converged"]["error_pct"])
+        assert isinstance(row["nonlinear_1mm"]["stable"], bool), name
         for q in ("k_out_N_per_mm", "amplification"):
             assert row["linear"][q]["error_pct"] < CONVERGED_PCT, (name, q)
     held = sum(h for _, h, _ in bodies.values())
@@ -140,6 +164,12 @@ def test_entries_are_the_scripts_bodies_with_the_held_out_rule_and_converged():
 def _beam_vs(name, nonlinear):
     row = ENTRIES[name]
     model = build_beam_model(design_from_dict(row["design"]))
+    if nonlinear and not row["nonlinear_1mm"]["stable"]:
+        # the continuum's state at 1 mm is unstable (the part buckles sideways before it):
+        # no numbers to compare; the beam model must say the same
+        with pytest.raises((InstabilityError, SnapThroughError)):
+            solve(model, target_output_mm=1.0)
+        return
     if nonlinear:
         # the 3-across nonlinear solve, less the mesh error its linear solve shows there
         nl, same = row["nonlinear_1mm"], row["nonlinear_1mm"]["linear_same_mesh"]
