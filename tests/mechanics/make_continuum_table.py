@@ -204,18 +204,39 @@ def entry(family: str, held_out: bool, design: Design) -> dict:
     }
 
 
+#: Bisection steps of the output travel at which an unstable entry's state stops being stable
+#: (0 to 1 mm: 7 steps bracket it within 8 um).
+ONSET_STEPS = 7
+
+
+def stability_onset_mm(design: Design) -> list:
+    """[last stable, first unstable] output travel (mm) of the continuum's nonlinear path on
+    the :data:`NONLINEAR_MESH` mesh, by bisection between 0 and 1 mm."""
+    lo, hi = 0.0, 1.0
+    for _ in range(ONSET_STEPS):
+        mid = (lo + hi) / 2
+        if verify(design, mesh=NONLINEAR_MESH, nonlinear=True, target_output_mm=mid).stable:
+            lo = mid
+        else:
+            hi = mid
+    return [lo, hi]
+
+
 def nonlinear_entry(design: Design, same_mesh) -> dict:
     """The nonlinear solve at 1 mm output on the :data:`NONLINEAR_MESH` mesh, whether its
     state is stable (the tangent's lowest eigenvalue with the punch held: the symmetric path
-    can pass a sideways bifurcation), and the linear solve of that same mesh (``same_mesh``,
+    can pass a sideways bifurcation; where it is not, the travel at which it stops being
+    stable, :func:`stability_onset_mm`), and the linear solve of that same mesh (``same_mesh``,
     a :class:`ContinuumResult` or the stored dict of one)."""
     nl = verify(design, mesh=NONLINEAR_MESH, nonlinear=True)
+    onset = None if nl.stable else stability_onset_mm(design)
     same = same_mesh if isinstance(same_mesh, dict) else {
         "amplification": same_mesh.amplification, "k_out_N_per_mm": same_mesh.k_out_N_per_mm}
     return {"elements_across": NONLINEAR_MESH,
             "amplification": nl.amplification, "k_out_N_per_mm": nl.k_out_N_per_mm,
             "strain_energy_mJ": nl.strain_energy_mJ, "input_force_N": nl.input_force_N,
             "stable": nl.stable, "lowest_tangent_eigenvalue_N_per_mm": nl.lowest_tangent_eigenvalue_N_per_mm,
+            "stable_to_output_mm": onset,
             "hinge_peak_stress_MPa": _hinges(nl.hinge_stress_MPa),
             "hinge_peak_station_mm": _hinges(nl.hinge_peak_station_mm),
             "hinge_neck_stress_MPa": _hinges(nl.hinge_neck_stress_MPa),
