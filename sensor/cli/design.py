@@ -172,8 +172,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"  robust constraints: {'met' if rob.met else 'NOT met: ' + rob.why}")
     if verification is not None:
         e = verification.errors_pct
-        print(f"  continuum check (nonlinear, {args.travel:g} mm): beam vs FE k_out {e['k_out_N_per_mm']:+.1f} %, "
-              f"A {e['amplification']:+.1f} %, SE {e['strain_energy_mJ']:+.1f} %")
+        print(f"  continuum check (nonlinear, {args.travel:g} mm): " + (
+            f"beam vs FE k_out {e['k_out_N_per_mm']:+.1f} %, A {e['amplification']:+.1f} %, "
+            f"SE {e['strain_energy_mJ']:+.1f} %" if e else f"beam model {verification.beam['unstable']}")
+            + ("" if verification.fe.stable else "; the FE state there is UNSTABLE (the part sways sideways)"))
     for p in paths.values():
         print(f"wrote {p}")
     return 0

@@ -77,22 +77,26 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{design.name} {out['profile']}: continuum FE ({out['mesh']['elements']} quadratic triangles, "
           f"{out['mesh']['elements_across_hinge']:g} across each hinge) against the beam model")
+    unstable = out["beam"].get("unstable")
     print(f"  {'':<24}{'FE':>10}{'beam':>10}{'error %':>9}{'FE mesh error %':>17}")
     for key, label in (("amplification", "amplification A"), ("k_out_N_per_mm", "k_out (N/mm)"),
                        ("strain_energy_mJ", "strain energy (mJ)")):
-        print(f"  {label:<24}{out['fe'][key]:>10.4f}{out['beam'][key]:>10.4f}"
-              f"{out['errors_pct'][key]:>+9.2f}{out['convergence'][key]['error_pct']:>17.3f}")
-    sharp = "" if design.kerf_mm > 0 else " (sharp corners: singular, grows with the mesh)"
-    print("  hinge stress, MPa: one thickness inside the neck (FE / beam / error %); peak von Mises "
-          f"at the root (FE{sharp} / beam)")
-    for h, fe in out["fe"]["hinge_stress_MPa"].items():
-        print(f"    hinge {h:>2}: {fe:7.2f} / {out['beam']['hinge_stress_MPa'][h]:7.2f} / "
-              f"{out['errors_pct']['hinge_stress_MPa'][h]:+6.1f}   peak: {out['fe']['hinge_peak_stress_MPa'][h]:6.1f}"
-              f" / {out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
+        beam = f"{'-':>10}{'-':>9}" if unstable else f"{out['beam'][key]:>10.4f}{out['errors_pct'][key]:>+9.2f}"
+        print(f"  {label:<24}{out['fe'][key]:>10.4f}{beam}{out['convergence'][key]['error_pct']:>17.3f}")
+    if unstable:
+        print(f"  beam model: {unstable}")
+    else:
+        sharp = "" if design.kerf_mm > 0 else " (sharp corners: singular, grows with the mesh)"
+        print("  hinge stress, MPa: one thickness inside the neck (FE / beam / error %); peak von Mises "
+              f"at the root (FE{sharp} / beam)")
+        for h, fe in out["fe"]["hinge_stress_MPa"].items():
+            print(f"    hinge {h:>2}: {fe:7.2f} / {out['beam']['hinge_stress_MPa'][h]:7.2f} / "
+                  f"{out['errors_pct']['hinge_stress_MPa'][h]:+6.1f}   peak: "
+                  f"{out['fe']['hinge_peak_stress_MPa'][h]:6.1f} / {out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
     if out["stability"] and not out["stability"]["stable"]:
         print(f"  the continuum state at {args.target_output:g} mm is unstable (lowest tangent eigenvalue "
               f"{out['stability']['lowest_tangent_eigenvalue_N_per_mm']:.3g} N/mm with the punch held): "
-              "the part buckles sideways before this travel")
+              "the part sways sideways before this travel")
     if paths:
         print(f"wrote {args.out / paths[0].name}")
     return 0

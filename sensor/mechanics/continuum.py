@@ -658,7 +658,8 @@ class Verification:
     Mises stress in the neck and its root fillets on the finest mesh, converged with fillets,
     singular at the sharp corners of kerf 0), FE also ``hinge_peak_station_mm`` (where the
     peak sits, see :class:`ContinuumResult`); ``errors_pct`` the beam's errors relative to
-    the FE.
+    the FE. When the beam model's path stops being stable before the target (nonlinear),
+    ``beam`` is ``{"unstable": why}`` and ``errors_pct`` is empty: compare ``fe.stable``.
     """
 
     design: Design
@@ -672,13 +673,19 @@ class Verification:
 
 
 def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict:
+    """The beam model's values beside the FE's, or ``{"unstable": why}`` when its path stops
+    being stable before the target (nonlinear only)."""
     from geometry.topology import build_beam_model
+    from sensor.errors import InstabilityError
     from sensor.mechanics.solver import solve
     from sensor.mechanics.stress import hinge_stresses
 
     model = build_beam_model(design)
     travel = target_output_mm if nonlinear else target_output_mm * LINEAR_LIMIT_FRACTION
-    r = solve(model, target_output_mm=travel)
+    try:
+        r = solve(model, target_output_mm=travel)
+    except InstabilityError as exc:
+        return {"unstable": str(exc)}
     scale = target_output_mm / r.output_travel_mm
     s = hinge_stresses(model, r)
     return {"amplification": r.amplification, "k_out_N_per_mm": r.k_out_N_per_mm,
@@ -705,6 +712,8 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     fe_summary["hinge_peak_stress_MPa"] = dict(fe.hinge_stress_MPa)
     fe_summary["hinge_peak_station_mm"] = dict(fe.hinge_peak_station_mm)
     beam = _beam_side(design, target_output_mm, nonlinear)
+    if "unstable" in beam:
+        return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, {})
     errors = {q: 100 * (beam[q] / fe_summary[q] - 1) for q in CONVERGED}
     errors["hinge_stress_MPa"] = {h: 100 * (beam["hinge_stress_MPa"][h] / v - 1)
                                   for h, v in fe_summary["hinge_stress_MPa"].items()}

@@ -96,3 +96,27 @@ def test_verify_text_says_the_part_is_as_cut(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "basis-5N as cut, kerf 0.8 mm: continuum FE" in text
     assert sum(line.strip().startswith("hinge") and "peak:" in line for line in text.splitlines()) == 8
+
+
+def test_a_beam_model_that_goes_unstable_is_reported_beside_the_fe(tmp_path, capsys, monkeypatch):
+    """Where the beam model's path stops being stable before the target (nonlinear), verify
+    still reports the continuum's values and whether its state is stable, and says why the
+    beam has none, instead of stopping on the beam's error after the FE's minute."""
+    import sensor.mechanics.solver as solver
+    from sensor.errors import InstabilityError
+
+    def unstable(*args, **kwargs):
+        raise InstabilityError("increment 4: the equilibrium at input force 104.8 N is unstable")
+
+    monkeypatch.setattr(solver, "solve", unstable)
+    argv = ["verify", "--preset", "basis", "--mesh", "coarse", "--kerf", "0", "--no-plots",
+            "--target-output", "0.05", "--nonlinear", "--out", str(tmp_path)]
+    assert main(argv + ["--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["beam"] == {"unstable": "increment 4: the equilibrium at input force 104.8 N is unstable"}
+    assert out["errors_pct"] == {} and out["fe"]["k_out_N_per_mm"] > 0
+    assert out["stability"]["stable"] is True
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "beam model: increment 4: the equilibrium at input force 104.8 N is unstable" in text
+    assert "the continuum state" not in text   # the FE's own state is stable
