@@ -85,18 +85,19 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {label:<24}{out['fe'][key]:>10.4f}{beam}{out['convergence'][key]['error_pct']:>17.3f}")
     if unstable:
         print(f"  beam model: {unstable}")
-    else:
-        sharp = "" if design.kerf_mm > 0 else " (sharp corners: singular, grows with the mesh)"
-        print("  hinge stress, MPa: one thickness inside the neck (FE / beam / error %); peak von Mises "
-              f"at the root (FE{sharp} / beam)")
-        for h, fe in out["fe"]["hinge_stress_MPa"].items():
-            print(f"    hinge {h:>2}: {fe:7.2f} / {out['beam']['hinge_stress_MPa'][h]:7.2f} / "
-                  f"{out['errors_pct']['hinge_stress_MPa'][h]:+6.1f}   peak: "
-                  f"{out['fe']['hinge_peak_stress_MPa'][h]:6.1f} / {out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
+    sharp = "" if design.kerf_mm > 0 else " (sharp corners: singular, grows with the mesh)"
+    print("  hinge stress, MPa: one thickness inside the neck (FE / beam / error %); peak von Mises "
+          f"at the root (FE{sharp} / beam)")
+    for h, fe in out["fe"]["hinge_stress_MPa"].items():
+        beam = (f"{'-':>7} / {'-':>6}", f"{'-':>6}") if unstable else (
+            f"{out['beam']['hinge_stress_MPa'][h]:7.2f} / {out['errors_pct']['hinge_stress_MPa'][h]:+6.1f}",
+            f"{out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
+        print(f"    hinge {h:>2}: {fe:7.2f} / {beam[0]}   peak: "
+              f"{out['fe']['hinge_peak_stress_MPa'][h]:6.1f} / {beam[1]}")
     if out["stability"] and not out["stability"]["stable"]:
-        print(f"  the continuum state at {args.target_output:g} mm is unstable (lowest tangent eigenvalue "
-              f"{out['stability']['lowest_tangent_eigenvalue_N_per_mm']:.3g} N/mm with the punch held): "
-              "the part sways sideways before this travel")
+        print(f"  the continuum state at {args.target_output:g} mm is unstable ({out['stability']['negative_modes']} "
+              "negative modes of the tangent stiffness with the punch held): the part sways sideways before "
+              "this travel")
     if paths:
         print(f"wrote {args.out / paths[0].name}")
     return 0

@@ -20,8 +20,9 @@ Boundary conditions follow the beam model (:func:`geometry.topology.build_beam_m
 Linear by default; ``nonlinear=True`` solves the geometrically nonlinear problem (total
 Lagrangian, St Venant-Kirchhoff: small strains, large rotations) by Newton's method in input
 travel increments until the output reaches ``target_output_mm``, and checks that the state
-reached is stable (:func:`lowest_tangent_eigenvalue`: Newton follows the symmetric path
-through a sideways bifurcation without noticing). Units: mm, N, MPa, mJ. Needs gmsh and CadQuery (imported when called).
+reached is stable (:func:`tangent_negative_modes`: Newton follows the symmetric path
+through a sideways bifurcation without noticing). Units: mm, N, MPa, mJ. Needs gmsh and
+CadQuery (imported when called).
 """
 
 from __future__ import annotations
@@ -82,10 +83,10 @@ class ContinuumResult:
     triangles: np.ndarray
     displacement_mm: np.ndarray
     von_mises_MPa: np.ndarray
-    #: nonlinear only (else None): the lowest eigenvalue (N/mm) of the tangent stiffness at
-    #: the target with the punch held, and whether that state is stable
-    #: (:func:`lowest_tangent_eigenvalue`)
-    lowest_tangent_eigenvalue_N_per_mm: float | None = None
+    #: nonlinear only (else None): how many eigenvalues of the tangent stiffness at the
+    #: target, with the punch held, are negative (:func:`tangent_negative_modes`), and
+    #: whether that state is stable (none are)
+    negative_modes: int | None = None
     stable: bool | None = None
 
 
@@ -409,33 +410,37 @@ def _svk_forms(lam: float, mu: float):
     return tangent, internal
 
 
-#: A state is unstable when the lowest eigenvalue of its tangent stiffness (held dofs
-#: removed) is below -UNSTABLE_EIGENVALUE x the mean diagonal of that stiffness. Round-off
-#: moves the eigenvalues of a symmetric matrix by about 1e-16 of its norm (Weyl's
-#: inequality), a few times its mean diagonal here; the lowest eigenvalues of the continuum
-#: table's states at 1 mm are 3e-8 to 1e-7 of it, of either sign.
-UNSTABLE_EIGENVALUE = 1e-12
+def tangent_negative_modes(pb: _Problem, u: np.ndarray) -> int:
+    """How many eigenvalues of the tangent stiffness at the state u, with the clamp and the
+    punch held (the guided punch of the test, driven by its travel), are negative: 0 when
+    the state is stable (an equilibrium is stable when the second variation of the
+    potential energy, the tangent stiffness, is positive definite: Bazant & Cedolin,
+    Stability of Structures, 1991). Newton follows the symmetric path through a sideways
+    bifurcation without noticing; past the first, this counts the modes crossed.
 
-
-def lowest_tangent_eigenvalue(pb: _Problem, u: np.ndarray) -> tuple[float, bool]:
-    """The lowest eigenvalue (N/mm) of the tangent stiffness at the state u with the clamp
-    and the punch held (the guided punch of the test, driven by its travel), and whether
-    the state is stable (see :data:`UNSTABLE_EIGENVALUE`). A negative eigenvalue means the
-    body buckles or snaps before it reaches u: the Newton path of :func:`verify` follows the
-    symmetric branch through the bifurcation without noticing (an equilibrium is stable when
-    the second variation of the potential energy, the tangent stiffness, is positive
-    definite: Bazant & Cedolin, Stability of Structures, 1991)."""
+    The count is the matrix's inertia (:func:`negative_eigenvalues`; checked against the
+    clamped column's buckling loads in tests/mechanics/test_continuum.py). Only the sign is
+    meaningful: the eigenvalues of a stiffness without a mass matrix scale with the mesh.
+    """
     from skfem import asm
 
     tangent, _ = _svk_forms(pb.lam, pb.mu)
     K = asm(tangent, pb.basis, u=pb.basis.interpolate(u)) * pb.depth
     free = np.ones(K.shape[0], bool)
     free[np.concatenate([pb.fixed, pb.punch_x, pb.punch_y])] = False
-    Kf = K[free][:, free].tocsc()
-    Kf = 0.5 * (Kf + Kf.T)          # symmetric up to round-off (hyperelastic)
-    scale = float(Kf.diagonal().mean())
-    low = float(spla.eigsh(Kf, k=1, sigma=-1e-6 * scale, which="LM", return_eigenvectors=False)[0])
-    return low, low > -UNSTABLE_EIGENVALUE * scale
+    Kf = K[free][:, free]
+    return negative_eigenvalues(0.5 * (Kf + Kf.T))   # symmetric up to round-off (hyperelastic)
+
+
+def negative_eigenvalues(H) -> int:
+    """Number of negative eigenvalues of a symmetric sparse matrix, by Sylvester's law of
+    inertia: SuperLU in symmetric mode without row pivoting gives P H P^T = L D L^T, and the
+    signs of D (the diagonal of U = D L^T) are those of the eigenvalues."""
+    lu = spla.splu(H.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                   options={"SymmetricMode": True})
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        raise SolverError("the LU factorisation pivoted off the diagonal: inertia unknown")
+    return int((lu.U.diagonal() < 0).sum())
 
 
 def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9, max_iter: int = 25):
@@ -507,7 +512,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         raise SensorInputError(f"design {design.name!r}: the mirror moves up ({out_lin:.3g} mm per mm "
                                "of input): no output travel to report")
     travel = target_output_mm / out_lin
-    low = stable = None
+    negative = None
     if not nonlinear:
         u = u * travel
         force = -float((pb.K @ u)[pb.punch_y].sum())
@@ -515,7 +520,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     else:
         u, travel, force = _nonlinear_to_target(pb, u * travel, travel, target_output_mm, increments)
         energy = _svk_energy(pb, u)
-        low, stable = lowest_tangent_eigenvalue(pb, u)
+        negative = tangent_negative_modes(pb, u)
     out = -float(pb.out_row @ u)
     G = _corner_gradients(pb, u)
     vm = _von_mises_of(pb, G, design.material.nu, plane_strain, nonlinear)
@@ -534,7 +539,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         mesh=str(mesh), elements_across=n_across, size_mm=_size_function(design, n_across)[1],
         n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,
         displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm,
-        lowest_tangent_eigenvalue_N_per_mm=low, stable=stable)
+        negative_modes=negative, stable=None if negative is None else negative == 0)
 
 
 def _nonlinear_to_target(pb, u_lin, travel_lin, target, increments):
@@ -673,8 +678,9 @@ class Verification:
 
 
 def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict:
-    """The beam model's values beside the FE's, or ``{"unstable": why}`` when its path stops
-    being stable before the target (nonlinear only)."""
+    """The beam model's values beside the FE's or, nonlinear, ``{"unstable": why}`` when its
+    path stops being stable before the target (its Newton iterations may also fail just past
+    the bifurcation: a ConvergenceError)."""
     from geometry.topology import build_beam_model
     from sensor.errors import InstabilityError
     from sensor.mechanics.solver import solve
@@ -684,7 +690,9 @@ def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict
     travel = target_output_mm if nonlinear else target_output_mm * LINEAR_LIMIT_FRACTION
     try:
         r = solve(model, target_output_mm=travel)
-    except InstabilityError as exc:
+    except (InstabilityError, ConvergenceError) as exc:
+        if not nonlinear:
+            raise
         return {"unstable": str(exc)}
     scale = target_output_mm / r.output_travel_mm
     s = hinge_stresses(model, r)
@@ -750,5 +758,5 @@ def verification_to_dict(v: Verification) -> dict:
         "options": {"plane_strain": fe.plane_strain, "nonlinear": fe.nonlinear,
                     "output_travel_mm": fe.output_travel_mm},
         "stability": None if fe.stable is None else {
-            "stable": fe.stable, "lowest_tangent_eigenvalue_N_per_mm": fe.lowest_tangent_eigenvalue_N_per_mm},
+            "stable": fe.stable, "negative_modes": fe.negative_modes},
     }

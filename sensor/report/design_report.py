@@ -301,12 +301,6 @@ def verification_from_dict(data: dict) -> Verification:
               f"the estimated discretisation error); at {opts['output_travel_mm']:g} mm output "
               f"travel" + ("" if opts["nonlinear"] else ", the beam model in its linear limit "
                            "scaled to it (the solve of section 2 is nonlinear)"))
-    stability = data.get("stability")
-    if stability:
-        method += ("; the FE state there is stable" if stability["stable"] else
-                   "; the FE state there is UNSTABLE (lowest tangent eigenvalue "
-                   f"{stability['lowest_tangent_eigenvalue_N_per_mm']:.3g} N/mm with the punch held): "
-                   "the part sways sideways before this travel")
     return Verification("run", rows=tuple(rows), hinge_rows=hinge_rows, method=method, data=data)
 
 

@@ -23,7 +23,9 @@ is stationary: dPi/dq = 0 is solved by Newton's method with the analytic gradien
 Hessian (sparse LU, ``scipy.sparse.linalg.splu``), raising the load in steps. Stationary
 rather than minimal: sample-b's symmetric state at 1 mm output lies past a sideways-sway
 bifurcation of the frame under a dead load, where it is a saddle of Pi (a minimiser leaves
-it). Only ``geometry.topology.BeamModel`` is read; nothing comes from the solver under test.
+it). Only ``geometry.topology.BeamModel`` is read, and the inertia count of a sparse matrix
+(``sensor.mechanics.continuum.negative_eigenvalues``); nothing comes from the solver under
+test.
 Units: mm, N, MPa, mJ (N mm).
 """
 
@@ -38,6 +40,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
 from geometry.topology import BeamModel
+from sensor.mechanics.continuum import negative_eigenvalues
 
 SHEAR_CORRECTION = 5.0 / 6.0  # rectangle; the inverse of the form factor 6/5
 
@@ -307,17 +310,6 @@ def _result(frame: Frame, q: np.ndarray, force: float, iterations: int) -> Frame
                        float(frame.output_dir @ u[frame.output_node]), float(energy.sum()),
                        float(np.linalg.norm(g)), negative_eigenvalues(hessian(frame, q, force)),
                        frame.n_dof, iterations)
-
-
-def negative_eigenvalues(H: sp.spmatrix) -> int:
-    """Number of negative eigenvalues of a symmetric sparse matrix, by Sylvester's law of
-    inertia: SuperLU in symmetric mode without row pivoting gives P H P^T = L D L^T, and the
-    signs of D (the diagonal of U = D L^T) are those of the eigenvalues."""
-    lu = splu(H.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-              options={"SymmetricMode": True})
-    if not np.array_equal(lu.perm_r, lu.perm_c):
-        raise RuntimeError("reference frame: the LU pivoted off the diagonal; inertia unknown")
-    return int((lu.U.diagonal() < 0).sum())
 
 
 def split_members(model: BeamModel, n: int) -> BeamModel:

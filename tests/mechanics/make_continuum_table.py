@@ -224,9 +224,9 @@ def stability_onset_mm(design: Design) -> list:
 
 def nonlinear_entry(design: Design, same_mesh) -> dict:
     """The nonlinear solve at 1 mm output on the :data:`NONLINEAR_MESH` mesh, whether its
-    state is stable (the tangent's lowest eigenvalue with the punch held: the symmetric path
-    can pass a sideways bifurcation; where it is not, the travel at which it stops being
-    stable, :func:`stability_onset_mm`), and the linear solve of that same mesh (``same_mesh``,
+    state is stable (no negative eigenvalue of the tangent with the punch held: the
+    symmetric path can pass a sideways bifurcation; where it is not, the travel at which it
+    stops being stable, :func:`stability_onset_mm`), and the linear solve of that same mesh (``same_mesh``,
     a :class:`ContinuumResult` or the stored dict of one)."""
     nl = verify(design, mesh=NONLINEAR_MESH, nonlinear=True)
     onset = None if nl.stable else stability_onset_mm(design)
@@ -235,8 +235,7 @@ def nonlinear_entry(design: Design, same_mesh) -> dict:
     return {"elements_across": NONLINEAR_MESH,
             "amplification": nl.amplification, "k_out_N_per_mm": nl.k_out_N_per_mm,
             "strain_energy_mJ": nl.strain_energy_mJ, "input_force_N": nl.input_force_N,
-            "stable": nl.stable, "lowest_tangent_eigenvalue_N_per_mm": nl.lowest_tangent_eigenvalue_N_per_mm,
-            "stable_to_output_mm": onset,
+            "stable": nl.stable, "negative_modes": nl.negative_modes, "stability_onset_mm": onset,
             "hinge_peak_stress_MPa": _hinges(nl.hinge_stress_MPa),
             "hinge_peak_station_mm": _hinges(nl.hinge_peak_station_mm),
             "hinge_neck_stress_MPa": _hinges(nl.hinge_neck_stress_MPa),

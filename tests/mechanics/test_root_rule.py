@@ -65,9 +65,9 @@ def test_root_rule_fits_within_half_the_k_target(monkeypatch):
     assert rms_k_error_pct([getattr(topology, n) for n in CONSTANTS], monkeypatch) < 1.5
 
 
-#: The bodies whose fillet peak the Kt rule misses by more than 10 % (3 of 47 cut bodies): a
-#: 1.25 mm hinge at the base of a steep basis body (t / r = 3.1, the FE's peak itself
-#: resolved to 1-13 %); like-9's hinges 3 and 6, whose continuum peak is in the neck, 0.92 mm
+#: The bodies whose fillet peak the Kt rule misses by more than 10 % (3 of 47 cut bodies):
+#: hinge 3 (1.25 mm, on the knee) of a basis body at phi1 15 deg (t / r = 3.1, the FE's peak
+#: itself resolved to 1-13 %); like-9's hinges 3 and 6, whose continuum peak is in the neck, 0.92 mm
 #: from the root (equal to the neck stress there: the root is not where the peak is), and
 #: like-11's top hinges 4 and 5 (ABS, 0.45 mm): the beam over-predicts, on the safe side.
 KT_MISSES = {"basis-15-1.25": "hinge 3 +11.1 %", "like-9-delrin": "hinges 3, 6 +26.5 %",

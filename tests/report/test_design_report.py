@@ -219,17 +219,3 @@ def test_bad_target_travel_is_refused(tmp_path):
         write_design_report(preset("sample-b"), tmp_path, target_output_mm=0)
     assert not any(tmp_path.iterdir())
 
-
-def test_verification_says_when_the_continuum_state_is_unstable():
-    """A nonlinear verification whose FE state at the target is unstable (the part sways
-    sideways before it: sensor.mechanics.continuum.lowest_tangent_eigenvalue) says so in
-    the method line the page prints; a stable one says it is stable; linear, nothing."""
-    data = _verification_dict(0.1, 0.1)
-    assert "stable" not in verification_from_dict(data).method
-    data["options"]["nonlinear"] = True
-    data["stability"] = {"stable": False, "lowest_tangent_eigenvalue_N_per_mm": -0.0031}
-    v = verification_from_dict(data)
-    assert "UNSTABLE (lowest tangent eigenvalue -0.0031 N/mm" in v.method
-    assert "UNSTABLE" in render_template("verification.html.j2", verification=v, verify_limits=VERIFY_LIMITS_PCT)
-    data["stability"]["stable"] = True
-    assert verification_from_dict(data).method.endswith("the FE state there is stable")
