@@ -95,9 +95,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"    hinge {h:>2}: {fe:7.2f} / {beam[0]}   peak: "
               f"{out['fe']['hinge_peak_stress_MPa'][h]:6.1f} / {beam[1]}")
     if out["stability"] and not out["stability"]["stable"]:
-        print(f"  the continuum state at {args.target_output:g} mm is unstable ({out['stability']['negative_modes']} "
-              "negative modes of the tangent stiffness with the punch held): the part sways sideways before "
-              "this travel")
+        n = out["stability"]["negative_modes"]
+        print(f"  the continuum state at {args.target_output:g} mm is unstable ({n} negative mode{'s' * (n > 1)} "
+              "of the tangent stiffness with the punch held): the part sways sideways before this travel")
     if paths:
         print(f"wrote {args.out / paths[0].name}")
     return 0
