@@ -84,10 +84,13 @@ class ContinuumResult:
     displacement_mm: np.ndarray
     von_mises_MPa: np.ndarray
     #: nonlinear only (else None): how many eigenvalues of the tangent stiffness at the
-    #: target, with the punch held, are negative (:func:`tangent_negative_modes`), and
-    #: whether that state is stable (none are)
+    #: target, with the punch held, are negative (:func:`tangent_negative_modes`)
     negative_modes: int | None = None
-    stable: bool | None = None
+
+    @property
+    def stable(self) -> bool | None:
+        """Whether the state at the target is stable (no negative mode); None when linear."""
+        return None if self.negative_modes is None else self.negative_modes == 0
 
 
 # --- geometry and mesh ---------------------------------------------------------------------
@@ -427,7 +430,7 @@ def tangent_negative_modes(pb: _Problem, u: np.ndarray) -> int:
     tangent, _ = _svk_forms(pb.lam, pb.mu)
     K = asm(tangent, pb.basis, u=pb.basis.interpolate(u)) * pb.depth
     free = np.ones(K.shape[0], bool)
-    free[np.concatenate([pb.fixed, pb.punch_x, pb.punch_y])] = False
+    free[_prescribed(pb, 0.0)[0]] = False
     Kf = K[free][:, free]
     return negative_eigenvalues(0.5 * (Kf + Kf.T))   # symmetric up to round-off (hyperelastic)
 
@@ -539,7 +542,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         mesh=str(mesh), elements_across=n_across, size_mm=_size_function(design, n_across)[1],
         n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,
         displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm,
-        negative_modes=negative, stable=None if negative is None else negative == 0)
+        negative_modes=negative)
 
 
 def _nonlinear_to_target(pb, u_lin, travel_lin, target, increments):

@@ -226,8 +226,8 @@ def nonlinear_entry(design: Design, same_mesh) -> dict:
     """The nonlinear solve at 1 mm output on the :data:`NONLINEAR_MESH` mesh, whether its
     state is stable (no negative eigenvalue of the tangent with the punch held: the
     symmetric path can pass a sideways bifurcation; where it is not, the travel at which it
-    stops being stable, :func:`stability_onset_mm`), and the linear solve of that same mesh (``same_mesh``,
-    a :class:`ContinuumResult` or the stored dict of one)."""
+    stops being stable, :func:`stability_onset_mm`), and the linear solve of that same mesh
+    (``same_mesh``, a :class:`ContinuumResult` or the stored dict of one)."""
     nl = verify(design, mesh=NONLINEAR_MESH, nonlinear=True)
     onset = None if nl.stable else stability_onset_mm(design)
     same = same_mesh if isinstance(same_mesh, dict) else {

@@ -218,4 +218,3 @@ def test_bad_target_travel_is_refused(tmp_path):
     with pytest.raises(SensorInputError, match="target_output_mm = 0"):
         write_design_report(preset("sample-b"), tmp_path, target_output_mm=0)
     assert not any(tmp_path.iterdir())
-
