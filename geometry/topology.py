@@ -14,7 +14,8 @@ JSON schema ``dacm-beam-model/1`` (units mm, MPa)::
                   "thickness_mm": float, "depth_mm": float, "hinge": int (0 if none),
                   "name": str,
                   "profile": [[s, t], ...] (optional), "neck_mm": [s0, s1] (optional),
-                  "root_radius_mm": [r_a, r_b] (optional)}, ...],
+                  "root_radius_mm": [r_a, r_b] (optional),
+                  "fillet_neck_mm": [[a_left, a_right], [b_left, b_right]] (optional)}, ...],
      "supports": [{"node": int, "dofs": ["x", "y", "rz"]}, ...],
      "input": {"node": int, "direction": [dx, dy]},
      "output": {"node": int, "direction": [dx, dy]}}
@@ -25,8 +26,12 @@ compliance. A member of varying thickness (a hinge with its root fillets) gives
 ``profile``: its in-plane thickness t (mm) at stations s (mm from its start, increasing,
 from 0 to its length), linear between stations; ``thickness_mm`` is then the neck's, the
 thinnest, ``neck_mm`` the stations where the neck of that thickness starts and ends, and
-``root_radius_mm`` the fillet radius at each end (0: a sharp root). ``direction`` is a unit vector: the input force acts along it, and the output
-travel is measured along it.
+``root_radius_mm`` the fillet radius at each end (0: a sharp root), ``fillet_neck_mm`` the
+stations where each root fillet meets the neck, at the start and the end, on the left and
+the right of the member (a face square to the member: both at the neck's end; a face that
+leans from its normal: the fillet in the acute corner reaches further along the neck than
+the one in the obtuse corner). ``direction`` is a unit vector: the input force acts along
+it, and the output travel is measured along it.
 """
 
 from __future__ import annotations
@@ -96,6 +101,7 @@ class BeamModel:
     profile_mm: tuple = ()            # per member: None (uniform) or (k, 2) stations s, t
     neck_mm: np.ndarray | None = None  # (m, 2) stations where the neck starts and ends
     root_radius_mm: np.ndarray | None = None  # (m, 2) fillet radius at each end (0: sharp)
+    fillet_neck_mm: np.ndarray | None = None  # (m, 2, 2) where each fillet meets the neck, [start, end] x [left, right]
 
     def __post_init__(self):
         m = len(self.member_kind)
@@ -105,6 +111,8 @@ class BeamModel:
             object.__setattr__(self, "neck_mm", np.column_stack([np.zeros(m), self.lengths_mm]))
         if self.root_radius_mm is None:
             object.__setattr__(self, "root_radius_mm", np.zeros((m, 2)))
+        if self.fillet_neck_mm is None:
+            object.__setattr__(self, "fillet_neck_mm", np.repeat(self.neck_mm[:, :, None], 2, axis=2))
 
     @property
     def lengths_mm(self) -> np.ndarray:
@@ -183,7 +191,7 @@ def _fill_mm(s: np.ndarray, side: tuple) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=4096)
-def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray, tuple, float, float]:
+def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray, tuple, float, float, tuple]:
     """The thickness profile of a hinge member of the cut part (mm).
 
     The neck of thickness t and drawn length l_h runs between two faces; at each face the
@@ -197,9 +205,10 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
 
     Cached (a sweep's cells share their hinges); the stations are read-only.
     Returns (stations (k, 2) of s and t, (s0, s1) where the uniform neck starts and ends,
-    member length, how far behind the start face's axis crossing the member starts), all
-    in mm from the member's start: ``k`` = 2 + 4 :data:`FILLET_STATIONS` for every hinge, so the profiles
-    of a batch stack.
+    member length, how far behind the start face's axis crossing the member starts, and
+    per end the stations where its acute-corner and obtuse-corner fillets meet the neck),
+    all in mm from the member's start: ``k`` = 2 + 4 :data:`FILLET_STATIONS` for every
+    hinge, so the profiles of a batch stack.
     """
     start = _fillet_sides(t_mm, *ends[0][:3])
     # the end face crosses the axis at l_h; its sides, mirrored, in the member's stations
@@ -222,7 +231,8 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
     shift = da - face0  # the member starts this far behind the start face's axis crossing
     st[:, 0] += shift
     st.flags.writeable = False  # cached: a sweep's cells share their hinges' profiles
-    return st, (float(neck0 + shift), float(neck1 + shift)), float(st[-1, 0]), float(shift)
+    fillets = tuple(tuple(float(n + shift) for _, n, _ in sides) for sides in (start, end))
+    return st, (float(neck0 + shift), float(neck1 + shift)), float(st[-1, 0]), float(shift), fillets
 
 
 def root_radius_mm(design: Design) -> float:
@@ -351,14 +361,22 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         # elastic roots: each hinge member starts its root depth inside the body and ends its
         # root depth inside the link (rigid offsets carry the bodies out to those points); the
         # link's hinge ends are a + l_h u and b - l_h u (member_chain)
-        (p1, neck1, len1, _), (p2, neck2, len2, _) = profiles[h1], profiles[h2]
+        (p1, neck1, len1, _, fil1), (p2, neck2, len2, _, fil2) = profiles[h1], profiles[h2]
         in1, in2 = body_depth[h1], body_depth[h2]        # root depths into the bodies
         out1, out2 = len1 - lh - in1, len2 - lh - in2    # and into the link
         ra, rb = node((ax - ux * in1, ay - uy * in1)), node((bx + ux * in2, by + uy * in2))
         j1 = node(((ax + ux * lh) + ux * out1, (ay + uy * lh) + uy * out1))
         j2 = node(((bx - ux * lh) - ux * out2, (by - uy * lh) - uy * out2))
-        shape[len(members) + 1] = (p1, neck1, (r, r))
-        shape[len(members) + 3] = (p2, neck2, (r, r))
+        # each fillet's station, left and right: where a hinge meets a body, the face leans
+        # from the link's normal (the plates' and knees' faces are horizontal, the knees' and
+        # the platform's side faces, which the middle links join, vertical); c is the sine
+        # of that lean, signed by the side of the member (left: +) the start body's outward
+        # face normal tilts towards: the acute corner is on the other side there (and, the
+        # end body's normal pointing back along the member, on that side at the end)
+        c = -math.copysign(1.0, ux) * uy if "middle" in name else math.copysign(1.0, uy) * ux
+        # (the link ends are square: both fillets at the neck's end)
+        shape[len(members) + 1] = (p1, neck1, (r, r), (_left_right(fil1[0], c < 0), fil1[1]))
+        shape[len(members) + 3] = (p2, neck2, (r, r), (fil2[0], _left_right(fil2[1], c > 0)))
         members += [("rigid", ia, ra, t1, 0, f"hinge {h1} root"),
                     ("hinge", ra, j1, t1, h1, f"hinge {h1}"),
                     ("link", j1, j2, d.link_width_mm, 0, f"{name} link"),
@@ -371,8 +389,9 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     lengths = np.linalg.norm(nodes_arr[list(ends)] - nodes_arr[list(starts)], axis=1)
     neck = np.column_stack([np.zeros(m), lengths])
     radius = np.zeros((m, 2))
-    for i, (_, span, radii) in shape.items():
-        neck[i], radius[i] = span, radii
+    fillet = np.repeat(neck[:, :, None], 2, axis=2)
+    for i, (_, span, radii, sides) in shape.items():
+        neck[i], radius[i], fillet[i] = span, radii, sides
     return BeamModel(
         nodes=nodes_arr,
         member_nodes=np.column_stack([starts, ends]).astype(int),
@@ -393,7 +412,13 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         profile_mm=tuple(shape[i][0] if i in shape else None for i in range(m)),
         neck_mm=neck,
         root_radius_mm=radius,
+        fillet_neck_mm=fillet,
     )
+
+
+def _left_right(acute_obtuse: tuple, acute_left: bool) -> tuple:
+    """An end's (acute-corner, obtuse-corner) pair as (left, right) of the member."""
+    return acute_obtuse if acute_left else acute_obtuse[::-1]
 
 
 # --- JSON ------------------------------------------------------------------------------
@@ -421,12 +446,13 @@ def _member_to_dict(model: BeamModel, i: int) -> dict:
         out["profile"] = model.profile_mm[i].tolist()
         out["neck_mm"] = model.neck_mm[i].tolist()
         out["root_radius_mm"] = model.root_radius_mm[i].tolist()
+        out["fillet_neck_mm"] = model.fillet_neck_mm[i].tolist()
     return out
 
 
 _MODEL_KEYS = {"schema", "units", "material", "nodes", "members", "supports", "input", "output"}
 _MEMBER_KEYS = {"kind", "start", "end", "thickness_mm", "depth_mm", "hinge", "name", "profile", "neck_mm",
-                "root_radius_mm"}
+                "root_radius_mm", "fillet_neck_mm"}
 #: Largest number of stations in a member's thickness profile.
 MAX_PROFILE_STATIONS = 1000
 _COORD = Number(-MAX_LENGTH_MM, MAX_LENGTH_MM, unit="mm")
@@ -512,7 +538,8 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
         if not isinstance(name, str):
             fail(f"member {i} name = {name!r}: must be a string")
         length = math.dist(nodes[start], nodes[end])
-        shape = _member_shape(m, i, length, fail, number) if "profile" in m else (None, (0.0, length), (0.0, 0.0))
+        shape = (_member_shape(m, i, length, fail, number) if "profile" in m
+                 else (None, (0.0, length), (0.0, 0.0), ((0.0, 0.0), (length, length))))
         members.append((m["kind"], start, end, size.get("thickness_mm", 0.0),
                         size.get("depth_mm", 0.0), int(hinge), name, *shape))
     supports = []
@@ -526,7 +553,7 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
     for port in ("input", "output"):
         p = table(data[port], port, {"node", "direction"}, ("node", "direction"))
         ports[port] = (index(p["node"], f"{port} node", n), direction(p["direction"], f"{port} direction"))
-    kind, start, end, thick, depth, hinge, name, profile, neck, radius = zip(*members)
+    kind, start, end, thick, depth, hinge, name, profile, neck, radius, fillet = zip(*members)
     return BeamModel(
         nodes=np.array(nodes, dtype=float),
         member_nodes=np.array([start, end], dtype=int).T.reshape(-1, 2),
@@ -546,11 +573,13 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
         profile_mm=profile,
         neck_mm=np.array(neck, dtype=float),
         root_radius_mm=np.array(radius, dtype=float),
+        fillet_neck_mm=np.array(fillet, dtype=float),
     )
 
 
 def _member_shape(m: dict, i: int, length: float, fail, number) -> tuple:
-    """A member's thickness profile, neck stations and root radii from its JSON entry."""
+    """A member's thickness profile, neck stations, root radii and root fillet stations
+    from its JSON entry."""
     if m["kind"] == "rigid":
         fail(f"member {i}: a rigid member has no thickness profile")
     prof = m["profile"]
@@ -570,7 +599,13 @@ def _member_shape(m: dict, i: int, length: float, fail, number) -> tuple:
 
     neck = pair("neck_mm", [0.0, length], _COORD)
     radius = pair("root_radius_mm", [0.0, 0.0], Number(0.0, MAX_LENGTH_MM, unit="mm"))
-    return st, neck, radius
+    fillet = m.get("fillet_neck_mm", [[neck[0]] * 2, [neck[1]] * 2])
+    if not (isinstance(fillet, list) and len(fillet) == 2
+            and all(isinstance(f, list) and len(f) == 2 for f in fillet)):
+        fail(f"member {i} fillet_neck_mm = {reprlib.repr(fillet)}: must be [[start left, start right], "
+             "[end left, end right]] (mm)")
+    fillet = tuple(tuple(number(v, f"member {i} fillet_neck_mm", _COORD) for v in f) for f in fillet)
+    return st, neck, radius, fillet
 
 
 def model_to_json(model: BeamModel) -> str:

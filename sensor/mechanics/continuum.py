@@ -5,7 +5,8 @@ The reference for the beam model (:mod:`sensor.mechanics.solver`): the profile t
 jet leaves (DESIGN section 16: the outline and holes of ``dacm export --dxf`` with every
 re-entrant corner rounded with the jet's radius, kerf / 2; by default the design's
 ``kerf_mm``, 0.8 mm; kerf 0 is the drawing, sharp corners), meshed with gmsh into triangles
-refined in the hinges and solved with scikit-fem using quadratic (6-node) triangles, in
+refined in the hinges and, finer still, round their root fillets (:func:`_size_function`),
+and solved with scikit-fem using quadratic (6-node) triangles, in
 plane stress (default) or plane strain.
 
 Boundary conditions follow the beam model (:func:`geometry.topology.build_beam_model`):
@@ -56,7 +57,11 @@ class ContinuumResult:
     neck, where the fillet is; negative: in the body joined); ``hinge_neck_stress_MPa`` the
     peak on the neck's two faces at the stations at least one thickness t from either drawn
     root (the middle station when the neck is shorter than 2 t), the beam theory's nominal
-    stress there. ``points`` (N, 2), ``triangles`` (M, 3), ``displacement_mm`` (N, 2) and
+    stress there; ``hinge_corner_stress_MPa`` the peak in each quarter of the hinge's zone,
+    ``[[start left, start right], [end left, end right]]``: the half nearer the drawn axis'
+    start or its end, left or right of the axis (the axis runs as the beam model's member
+    does, :func:`geometry.layout.make_parts`), so each root fillet's peak on its own.
+    ``points`` (N, 2), ``triangles`` (M, 3), ``displacement_mm`` (N, 2) and
     ``von_mises_MPa`` (M, 3, at each triangle's corners) are the fields for pictures.
     ``size_mm`` is the element size in the thinnest hinge; ``kerf_mm`` the kerf of the
     profile solved (0: the drawing).
@@ -71,6 +76,7 @@ class ContinuumResult:
     hinge_stress_MPa: dict
     hinge_peak_station_mm: dict
     hinge_neck_stress_MPa: dict
+    hinge_corner_stress_MPa: dict
     kerf_mm: float
     plane_strain: bool
     nonlinear: bool
@@ -112,23 +118,34 @@ def cut_profile_loops(design: Design, kerf_mm: float | None = None):
     return face_loops(face)
 
 
-def _size_function(design: Design, n_across: float):
-    """Target element size (mm) at a point: t / n_across in each hinge, growing away from it."""
+def _size_function(design: Design, n_across: float, kerf_mm: float = 0.0):
+    """Target element size (mm) at a point: t / n_across in each hinge, growing away from it;
+    around each hinge root (within t / 2 + 2 r of where its axis meets a face) at most
+    r / n_across, r = kerf / 2, so that a fillet larger than the neck is resolved as finely
+    as the neck and a smaller one by n_across elements over its radius: the peak stress in
+    the fillet converges with the mesh (with t / n_across alone, fillets of r < t got two or
+    three elements and the peak moved by up to 25 % between levels)."""
     hinges = [p for p in make_parts(make_layout(design)) if p.kind == "hinge"]
     a = np.array([p.axis[0] for p in hinges])
     b = np.array([p.axis[1] for p in hinges])
     ab = b - a
     ln2 = np.einsum("ij,ij->i", ab, ab)
-    h_min = np.array([p.width for p in hinges]) / n_across
-    reach = 1.5 * np.array([p.width for p in hinges])
+    width = np.array([p.width for p in hinges])
+    h_min = width / n_across
+    reach = 1.5 * width
     h_max = 2.0 * min(design.link_width_mm, design.plate_thickness_mm) / n_across
+    r = kerf_mm / 2
+    roots = np.concatenate([a, b])
+    h_root = np.tile(np.minimum(width, r) / n_across, 2) if r > 0 else np.full(len(roots), np.inf)
+    root_reach = np.tile(width / 2 + 2 * r, 2)
 
     def size(x: float, y: float) -> float:
         p = np.array([x, y])
         s = np.clip(np.einsum("ij,ij->i", p - a, ab) / ln2, 0.0, 1.0)
         dist = np.linalg.norm(a + s[:, None] * ab - p, axis=1)
         h = h_min + 0.5 * np.maximum(dist - reach, 0.0)
-        return float(min(h.min(), h_max))
+        near = h_root + 0.5 * np.maximum(np.linalg.norm(roots - p, axis=1) - root_reach, 0.0)
+        return float(min(h.min(), near.min(), h_max))
 
     return size, float(h_min.min())
 
@@ -164,7 +181,7 @@ def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
 
     outline, holes = cut_profile_loops(design, kerf_mm)
     outline = _split_at(outline, (-punch_width_mm / 2, punch_width_mm / 2), design.height_mm)
-    size, _ = _size_function(design, n_across)
+    size, _ = _size_function(design, n_across, design.kerf_mm if kerf_mm is None else kerf_mm)
     gmsh.initialize(["-noenv"], readConfigFiles=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -357,16 +374,16 @@ def _hinge_frames(design: Design):
 def hinge_zones(design: Design, xy: np.ndarray, kerf_mm: float = 0.0) -> dict[int, tuple]:
     """Per hinge, a boolean mask over points ``xy`` (..., 2) of the whole hinge (neck and
     both roots: the fillets of radius kerf / 2 and t + kerf / 2 into the bodies it joins),
-    and each point's station along the axis from the nearer drawn root (mm, positive into
-    the neck)."""
+    each point's station along the drawn axis from its start (mm), its offset across the
+    axis (mm, positive on the left) and the drawn length L (mm)."""
     out = {}
     pad = kerf_mm / 2
     for h, a, u, nrm, L, t in _hinge_frames(design):
         rel = xy - a
-        s = rel @ u
+        s, y = rel @ u, rel @ nrm
         reach = t + pad
-        whole = (s > -reach) & (s < L + reach) & (np.abs(rel @ nrm) < t / 2 + pad + 1e-6)
-        out[h] = (whole, np.minimum(s, L - s))
+        whole = (s > -reach) & (s < L + reach) & (np.abs(y) < t / 2 + pad + 1e-6)
+        out[h] = (whole, s, y, L)
     return out
 
 
@@ -527,10 +544,12 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     out = -float(pb.out_row @ u)
     G = _corner_gradients(pb, u)
     vm = _von_mises_of(pb, G, design.material.nu, plane_strain, nonlinear)
-    stress, station = {}, {}
-    for h, (zone, s) in sorted(hinge_zones(design, points[triangles], rounding).items()):
+    stress, station, corner = {}, {}, {}
+    for h, (zone, s, y, L) in sorted(hinge_zones(design, points[triangles], rounding).items()):
         k = np.argmax(np.where(zone, vm, -np.inf))
-        stress[h], station[h] = float(vm.flat[k]), float(s.flat[k])
+        stress[h], station[h] = float(vm.flat[k]), float(min(s.flat[k], L - s.flat[k]))
+        corner[h] = [[float(np.max(vm, where=zone & end & side, initial=0.0)) for side in (y > 0, y <= 0)]
+                     for end in (s < L / 2, s >= L / 2)]
     neck = {h: float(_von_mises_of(pb, _gradients_at(pb, G, xy), design.material.nu, plane_strain,
                                    nonlinear).max())
             for h, xy in sorted(neck_points(design).items())}
@@ -538,6 +557,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         amplification=out / travel, k_out_N_per_mm=force / out, strain_energy_mJ=energy,
         input_force_N=force, input_travel_mm=travel, output_travel_mm=out,
         hinge_stress_MPa=stress, hinge_peak_station_mm=station, hinge_neck_stress_MPa=neck,
+        hinge_corner_stress_MPa=corner,
         kerf_mm=float(kerf), plane_strain=plane_strain, nonlinear=nonlinear,
         mesh=str(mesh), elements_across=n_across, size_mm=_size_function(design, n_across)[1],
         n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,

@@ -9,11 +9,17 @@ station of the neck is
 
     sigma(s) = |N| / (t b) + 6 |M(s)| / (b t^2)        (axial plus bending, MPa)
 
-The peak stress sits in a root fillet: the nominal stress where the neck meets the fillet
-times the fillet's stress concentration factor :func:`root_kt` (a function of r / t fitted
-to the continuum FE of cut parts, the form of Peterson's shoulder-fillet factors). The
-drawn profile's sharp roots (r = 0) have no finite peak in linear elasticity; they carry
-:data:`SHARP_ROOT_KT`, the factor the thesis' specimens' cut roots were once given.
+on its more loaded face; on each face, N / (t b) -/+ 6 M(s) / (b t^2) (left / right of the
+member's axis). The peak stress sits in a root fillet, and each of the four (two ends, two
+faces) concentrates its own face's stress where the neck starts: times
+:func:`fillet_kt`, which is :func:`root_kt` (a function of r / t fitted to the continuum FE
+of cut parts, the form of Peterson's shoulder-fillet factors) where the fillet rounds a
+square or acute corner, and 1 where the face leans away from the neck (an obtuse corner:
+the continuum shows no concentration there, the acute fillet across has already widened
+the section). With an axial force the two faces differ, and the fillet of the less loaded
+face can govern. The drawn profile's sharp roots (r = 0) have no finite peak in linear
+elasticity; they carry :data:`SHARP_ROOT_KT`, the factor the thesis' specimens' cut roots
+were once given.
 """
 
 from __future__ import annotations
@@ -30,10 +36,10 @@ from geometry.topology import BeamModel
 class HingeStress:
     """Stresses (MPa) of one hinge at the solved state.
 
-    ``root_nominal_MPa``: axial plus bending where the neck meets its more loaded root
-    fillet; ``neck_MPa``: the same one thickness inside the neck from either end (the
-    larger); ``kt``: that root's stress concentration factor; ``peak_MPa`` = kt x
-    root_nominal_MPa (the larger of the two roots').
+    ``root_nominal_MPa``: the stress of the governing root fillet's face where the neck
+    starts; ``neck_MPa``: axial plus bending one thickness inside the neck from either end
+    (the larger); ``kt``: the governing fillet's factor; ``peak_MPa`` = kt x
+    root_nominal_MPa (the largest of the four fillets').
     """
 
     hinge: int
@@ -71,23 +77,62 @@ def _nominal_stress(N, Ma, Mb, t, b, L, s):
     return np.abs(N) / (t * b) + 6.0 * np.abs(-Ma + (Ma + Mb) * s / L) / (b * t * t)
 
 
+def _face_stress(N, Ma, Mb, t, b, L, s, side, across=0.0):
+    """Stress (MPa, magnitude) on one face of members with end forces N, Ma, Mb at stations
+    s (mm): the left face (``side`` +1, the member's normal rotated +90 deg from its axis)
+    or the right (-1). The section there is t plus ``across`` (mm) wide, widened on the
+    other face only, so its centroid sits across / 2 off the member's axis and the axial
+    force bends it too: N / (b w) - 6 side M(s) / (b w^2) + 3 N across / (b w^2),
+    w = t + across (plane sections; M > 0 compresses the left face)."""
+    w = t + across
+    M = -Ma + (Ma + Mb) * s / L
+    return np.abs(N / (b * w) - side * 6.0 * M / (b * w * w) + 3.0 * N * across / (b * w * w))
+
+
+def fillet_widening_mm(t_mm, radius_mm, reach_mm):
+    """How much the fillet across widens the section where a root fillet meets the neck
+    (mm): the fillet across, of radius r, meets the neck ``reach_mm`` further along; its
+    height here, r - sqrt(r^2 - reach^2) (r past one radius), counts in proportion to how
+    far it has grown, up to one neck thickness (Saint-Venant: added material takes its
+    share of the stress over about one thickness). 0 where both fillets meet the neck
+    together (a face square to the hinge)."""
+    reach = np.clip(reach_mm, 0.0, None)
+    gap = np.minimum(reach, radius_mm)
+    height = radius_mm - np.sqrt(np.maximum(radius_mm * radius_mm - gap * gap, 0.0))
+    return height * np.minimum(1.0, reach / t_mm)
+
+
 def hinge_stresses(model: BeamModel, result) -> dict[int, HingeStress]:
-    """Each hinge's stresses at the solved state of ``result`` (a SolveResult of ``model``)."""
+    """Each hinge's stresses at the solved state of ``result`` (a SolveResult of ``model``).
+
+    Each of a hinge's four root fillets (two ends, two faces) concentrates its own face's
+    stress where it meets the neck, by :func:`root_kt`: in the section widened by the
+    fillet across where that one reaches further (a face leaning from the hinge's normal,
+    :func:`fillet_widening_mm`). The faces' stresses where the neck starts count too (with
+    no factor: a shielded fillet's face peaks there). The peak is the largest of these."""
     row = {int(m): i for i, m in enumerate(result.member_index)}
     hinges = model.hinge_members
     N, Ma, Mb = np.asarray(result.member_forces)[[row[int(m)] for m in hinges]].T
     t, b = model.thickness_mm[hinges], model.depth_mm[hinges]
     L = model.lengths_mm[hinges]
     s0, s1 = model.neck_mm[hinges].T
-    roots = np.stack([_nominal_stress(N, Ma, Mb, t, b, L, s0), _nominal_stress(N, Ma, Mb, t, b, L, s1)])
-    kt = root_kt(t[None, :], model.root_radius_mm[hinges].T)
-    peaks = kt * roots
+    at = np.moveaxis(model.fillet_neck_mm[hinges], 0, -1)        # (end, side, hinge)
+    r = model.root_radius_mm[hinges].T[:, None, :]               # (end, 1, hinge)
+    # how much further the fillet across meets the neck (into the neck: + at the start)
+    reach = (at[:, ::-1] - at) * np.array([1.0, -1.0])[:, None, None]
+    side = np.array([1.0, -1.0])[None, :, None]
+    fillet = _face_stress(N, Ma, Mb, t, b, L, at, side, fillet_widening_mm(t, r, reach))
+    neck_start = _face_stress(N, Ma, Mb, t, b, L, np.stack([s0, s1])[:, None, :], side)
+    kt = np.broadcast_to(root_kt(t, r), fillet.shape)
+    # candidates (fillets, then the neck starts' faces) x hinges
+    nominal = np.concatenate([fillet.reshape(4, -1), neck_start.reshape(4, -1)])
+    factor = np.concatenate([kt.reshape(4, -1), np.ones((4, len(hinges)))])
+    peaks = factor * nominal
     worst = np.argmax(peaks, axis=0)
-    cols = np.arange(len(hinges))
     neck = np.maximum(_nominal_stress(N, Ma, Mb, t, b, L, np.minimum(s0 + t, (s0 + s1) / 2)),
                       _nominal_stress(N, Ma, Mb, t, b, L, np.maximum(s1 - t, (s0 + s1) / 2)))
     numbers = model.hinge_number[hinges]
-    return {int(h): HingeStress(int(h), float(roots[w, i]), float(k), float(kt[w, i]), float(peaks[w, i]))
+    return {int(h): HingeStress(int(h), float(nominal[w, i]), float(k), float(factor[w, i]), float(peaks[w, i]))
             for i, (h, w, k) in enumerate(zip(numbers, worst, neck))}
 
 

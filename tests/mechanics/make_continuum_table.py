@@ -16,7 +16,9 @@ Two parts:
   solved), the linear limit at 1 mm output from three meshes (3, 4.24 and 6 across; 6, 8.49
   and 12 when those are not converged within 1 %) with Richardson extrapolation and its
   stated convergence, the per-hinge FE peak von Mises
-  stress at the root fillets at full scale (finest mesh, with its own three-mesh study),
+  stress at the root fillets at full scale (finest mesh, with its own three-mesh study) and
+  in each of a hinge's four root corners (``hinge_corner_stress_MPa``, see
+  :class:`~sensor.mechanics.continuum.ContinuumResult`),
   the nonlinear solve at 1 mm output on the coarsest of the three meshes (with the linear
   solve of that same mesh beside it, so the mesh error can be taken out, and whether the
   state reached is stable: ``--nonlinear-only`` recomputes just that part), and the seconds
@@ -56,9 +58,9 @@ CELLS = (("05-03", 8, 20), ("05-03", 12, 10), ("05-03", 16, 35), ("05-03", 22, 6
 NONLINEAR = ("basis", "sample-a", "sample-b", "sample-b-as-cut", "05-03-22-6", "03-03-28-6")
 
 #: Elements across each hinge of the finest of an entry's three meshes (a sqrt(2) ladder; the
-#: second value is tried when the first is not converged by CONVERGED_PCT, e.g. thick hinges,
-#: whose 0.4 mm fillets the t / 6 elements barely resolve) and of the nonlinear solve (3: the
-#: coarsest mesh of the first ladder, whose linear solve is stored beside it).
+#: second value is tried when the first is not converged by CONVERGED_PCT) and of the
+#: nonlinear solve (3: the coarsest mesh of the first ladder, whose linear solve is stored
+#: beside it).
 ENTRY_MESHES = (6.0, 12.0)
 NONLINEAR_MESH = 3.0
 #: An entry is stated converged when the Richardson error of its finest mesh is below this
@@ -199,6 +201,7 @@ def entry(family: str, held_out: bool, design: Design) -> dict:
         "hinge_peak_stress_study": {str(h): _study(c) for h, c in peak.items()},
         "hinge_peak_station_mm": _hinges(fine.hinge_peak_station_mm),
         "hinge_neck_stress_MPa": _hinges(fine.hinge_neck_stress_MPa),
+        "hinge_corner_stress_MPa": _hinges(fine.hinge_corner_stress_MPa),
         "nonlinear_1mm": nonlinear,
         "seconds": {"linear_three_meshes": round(t1 - t0, 1), "nonlinear": round(t2 - t1, 1)},
     }

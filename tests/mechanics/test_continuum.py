@@ -178,6 +178,22 @@ def test_default_profile_is_the_part_as_cut():
     assert 1.15 < cut.k_out_N_per_mm / drawn.k_out_N_per_mm < 1.4
 
 
+def test_mesh_resolves_fillets_smaller_than_the_neck():
+    """Around the roots of a hinge thicker than its fillet radius (1.25 mm basis hinges, r =
+    0.4 mm) the elements are r / n, not t / n (n elements across): the fillet's peak
+    converges (the table's peak studies; with t / n the 0.4 mm fillets got two or three
+    elements)."""
+    from sensor.mechanics.continuum import _hinge_frames
+
+    d = preset("basis").replace(hinge_thickness_mm=(1.25,) * 8 + (0.5,) * 4, kerf_mm=0.8)
+    pts, tri = mesh_profile(d, QUICK)
+    centre = pts[tri].mean(axis=1)
+    size = np.linalg.norm(pts[tri] - np.roll(pts[tri], 1, axis=1), axis=2).max(axis=1)
+    for h, a, u, nrm, L, t in _hinge_frames(d):
+        for end in (a, a + u * L):
+            assert size[np.linalg.norm(centre - end, axis=1) < t / 2 + 0.1].max() < 1.5 * 0.4 / QUICK, h
+
+
 def test_peak_is_at_the_fillet_and_above_the_neck_stress():
     """With fillets (r = 0.4 mm) each hinge's peak sits in the neck's end, between the
     drawn root and one fillet radius plus a thickness into the neck, and it is at least

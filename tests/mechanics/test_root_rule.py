@@ -9,6 +9,10 @@ tests/mechanics/data/continuum_table.json that are not held out. The test refits
 is within 0.1 percentage point of the refit's (the three constants are correlated, so their
 values can move more than the fit's quality does). The held-out entries are checked against
 the issue's targets by tests/mechanics/test_continuum_table.py with the stored constants.
+
+The stress rule's two constants (:mod:`sensor.mechanics.stress` ``KT_SCALE``,
+``KT_EXPONENT``) are fitted the same way to the FE's peak stress in the hinge roots of the
+cut entries, and every cut entry is checked against the issue's 10 % on it.
 """
 
 import numpy as np
@@ -17,11 +21,13 @@ from scipy.optimize import minimize
 
 import geometry.topology as topology
 from geometry.params import design_from_dict
+from sensor.mechanics import stress
 from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
 from sensor.mechanics.solver import solve
 from tests.mechanics.test_continuum_table import ENTRIES
 
 CONSTANTS = ("ROOT_DEPTH_PER_THICKNESS", "ROOT_DEPTH_PER_FILLET", "FILLET_SPREAD_SLOPE")
+KT_CONSTANTS = ("KT_SCALE", "KT_EXPONENT")
 FITTED = sorted(n for n, row in ENTRIES.items() if not row["held_out"])
 
 
@@ -58,38 +64,52 @@ def test_root_rule_is_the_least_squares_fit(monkeypatch):
     assert at_stored <= best.fun + 0.1, (best.x, best.fun, at_stored)
 
 
-@pytest.mark.xfail(strict=True, reason="disagrees: RMS 1.66 % on the 35 fitted entries of the complete "
-                                       "table (steep basis bodies +4.4 %, near-toggle DACMs -3.2 %)")
+@pytest.mark.xfail(strict=True, reason="disagrees: RMS 1.69 % on the 35 fitted entries of the complete "
+                                       "table (steep basis bodies +4.4 %, near-toggle DACMs -3.3 %)")
 def test_root_rule_fits_within_half_the_k_target(monkeypatch):
     """The fit's RMS k_out error within half the issue's 3 % target."""
     assert rms_k_error_pct([getattr(topology, n) for n in CONSTANTS], monkeypatch) < 1.5
 
 
-#: The bodies whose fillet peak the Kt rule misses by more than 10 % (3 of 47 cut bodies):
-#: hinge 3 (1.25 mm, on the knee) of a basis body at phi1 15 deg (t / r = 3.1, the FE's peak
-#: itself resolved to 1-13 %); like-9's hinges 3 and 6, whose continuum peak is in the neck, 0.92 mm
-#: from the root (equal to the neck stress there: the root is not where the peak is), and
-#: like-11's top hinges 4 and 5 (ABS, 0.45 mm): the beam over-predicts, on the safe side.
-KT_MISSES = {"basis-15-1.25": "hinge 3 +11.1 %", "like-9-delrin": "hinges 3, 6 +26.5 %",
-             "like-11-abs": "hinges 4, 5 +18.1 to +18.4 %"}
-CUT = [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=f"disagrees: {KT_MISSES[n]}"))
-       if n in KT_MISSES else n for n in sorted(n for n, row in ENTRIES.items() if row["kerf_mm"] > 0)]
+CUT = sorted(n for n, row in ENTRIES.items() if row["kerf_mm"] > 0)
+
+
+def _peak_errors_pct(name: str) -> dict[int, float]:
+    """Beam peak stress against the FE's converged peak in the hinge's roots (percent), on
+    every hinge carrying at least half the body's largest peak (the hinges the stress rule
+    is about; a lightly loaded hinge whose moment barely changes along it has no root peak
+    to speak of), linear, at 1 mm output."""
+    row = ENTRIES[name]
+    model = topology.build_beam_model(design_from_dict(row["design"]))
+    r = solve(model, target_output_mm=LINEAR_LIMIT_FRACTION)
+    beam = {h: s.peak_MPa / r.output_travel_mm for h, s in stress.hinge_stresses(model, r).items()}
+    fe = {int(h): v for h, v in row["hinge_peak_stress_MPa"].items()}
+    top = max(fe.values())
+    return {h: 100 * (beam[h] / v - 1) for h, v in fe.items() if v >= 0.5 * top}
 
 
 @pytest.mark.parametrize("name", CUT)
 def test_fillet_peak_stress_within_10_percent_of_the_continuum(name):
-    """Beam peak (fillet Kt x the nominal stress where the neck meets its fillet) against the
-    FE's converged peak von Mises in each root fillet, on every hinge carrying at least half
-    the body's largest peak (the hinges the stress rule is about), linear, at 1 mm output."""
-    from sensor.mechanics.stress import hinge_stresses
-
-    row = ENTRIES[name]
-    model = topology.build_beam_model(design_from_dict(row["design"]))
-    r = solve(model, target_output_mm=LINEAR_LIMIT_FRACTION)
-    scale = 1.0 / r.output_travel_mm
-    fe = {int(h): v for h, v in row["hinge_peak_stress_MPa"].items()}
-    top = max(fe.values())
-    beam = {h: s.peak_MPa * scale for h, s in hinge_stresses(model, r).items()}
-    misses = {h: f"{100 * (beam[h] / v - 1):+.1f} %" for h, v in fe.items()
-              if v >= 0.5 * top and abs(beam[h] / v - 1) > 0.10}
+    """Beam peak (each root fillet's Kt x its face's stress where the neck starts, the
+    largest of the four) within the issue's 10 % of the FE's (meshed to resolve the fillets:
+    its three-mesh Richardson error is in the table)."""
+    misses = {h: f"{e:+.1f} %" for h, e in _peak_errors_pct(name).items() if abs(e) > 10}
     assert not misses, misses
+
+
+def rms_peak_error_pct(values, monkeypatch) -> float:
+    for name, v in zip(KT_CONSTANTS, values):
+        monkeypatch.setattr(stress, name, float(v))
+    errors = [e for n in CUT if not ENTRIES[n]["held_out"] for e in _peak_errors_pct(n).values()]
+    return float(np.sqrt(np.mean(np.square(errors))))
+
+
+def test_kt_rule_is_the_least_squares_fit(monkeypatch):
+    """KT_SCALE and KT_EXPONENT are the least-squares fit of the beam's peak to the FE's on
+    the governing hinges of the cut entries not held out: the stored values' RMS error is
+    within 0.1 percentage point of a refit's."""
+    stored = [getattr(stress, n) for n in KT_CONSTANTS]
+    at_stored = rms_peak_error_pct(stored, monkeypatch)
+    best = minimize(lambda p: rms_peak_error_pct(p, monkeypatch), stored, method="Nelder-Mead",
+                    options={"xatol": 1e-3, "fatol": 1e-3, "maxiter": 60})
+    assert at_stored <= best.fun + 0.1, (best.x, best.fun, at_stored)
