@@ -55,9 +55,9 @@ class ContinuumResult:
     mesh is refined; with fillets it converges); ``hinge_peak_station_mm`` where that peak
     sits: its distance along the hinge axis from the nearer drawn root (positive: into the
     neck, where the fillet is; negative: in the body joined); ``hinge_neck_stress_MPa`` the
-    peak on the neck's two faces at the stations at least one thickness t from either drawn
-    root (the middle station when the neck is shorter than 2 t), the beam theory's nominal
-    stress there; ``hinge_corner_stress_MPa`` the peak in each quarter of the hinge's zone,
+    peak on the neck's two faces at the stations at least one thickness t inside the
+    uniform neck, past the root fillets (:func:`neck_points`; the middle station when the
+    neck is shorter than 2 t), the beam theory's nominal stress there; ``hinge_corner_stress_MPa`` the peak in each quarter of the hinge's zone,
     ``[[start left, start right], [end left, end right]]``: the half nearer the drawn axis'
     start or its end, left or right of the axis (the axis runs as the beam model's member
     does, :func:`geometry.layout.make_parts`), so each root fillet's peak on its own.
@@ -389,12 +389,22 @@ def hinge_zones(design: Design, xy: np.ndarray, kerf_mm: float = 0.0) -> dict[in
 
 def neck_points(design: Design) -> dict[int, np.ndarray]:
     """Per hinge, points (2 NECK_STATIONS, 2) on the neck's two faces (just inside) at the
-    stations from t to L - t along the drawn axis (at least one thickness from either
-    root, where the beam's nominal stress holds; the middle station L / 2 when L < 2 t, as
-    :func:`sensor.mechanics.stress.hinge_stresses` takes it)."""
+    stations at least one thickness inside the uniform neck, where the beam's nominal
+    stress holds: from t past where the neck starts to t before it ends, as
+    :func:`sensor.mechanics.stress.hinge_stresses` takes them (the beam model's
+    ``neck_mm``, past the root fillets of the part as cut, the design's ``kerf_mm``; the
+    middle station when the neck is shorter than 2 t)."""
+    from geometry.topology import build_beam_model
+
+    model = build_beam_model(design)
+    span = {int(model.hinge_number[i]): (model.nodes[model.member_nodes[i, 0]], model.neck_mm[i])
+            for i in model.hinge_members}
     out = {}
     for h, a, u, nrm, L, t in _hinge_frames(design):
-        s = np.linspace(min(t, L / 2), max(L - t, L / 2), NECK_STATIONS)
+        start, (n0, n1) = span[h]
+        behind = float((start - a) @ u)               # the member starts this far along the axis
+        lo, hi = n0 + behind + t, n1 + behind - t
+        s = np.linspace(lo, hi, NECK_STATIONS) if hi >= lo else np.full(NECK_STATIONS, (lo + hi) / 2)
         face = 0.5 * t * (1.0 - 1e-6)
         out[h] = np.concatenate([a + s[:, None] * u + side * face * nrm for side in (1.0, -1.0)])
     return out
@@ -552,7 +562,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
                      for end in (s < L / 2, s >= L / 2)]
     neck = {h: float(_von_mises_of(pb, _gradients_at(pb, G, xy), design.material.nu, plane_strain,
                                    nonlinear).max())
-            for h, xy in sorted(neck_points(design).items())}
+            for h, xy in sorted(neck_points(design.replace(kerf_mm=kerf)).items())}
     return ContinuumResult(
         amplification=out / travel, k_out_N_per_mm=force / out, strain_energy_mJ=energy,
         input_force_N=force, input_travel_mm=travel, output_travel_mm=out,

@@ -144,27 +144,33 @@ def test_gradients_at_any_point_are_exact_for_quadratic_fields():
     assert np.abs(G - exact).max() < 1e-9
 
 
-def test_neck_stations_follow_the_beam_rule_and_stay_on_the_faces():
-    """Stations from t to L - t (one thickness inside either root), or the middle station
-    when the neck is shorter than 2 t (thick hinges, e.g. dacm design's 5 N basis body,
-    1.24 mm hinges on a 2.82 mm neck at 1.5 elements across: no mesh corner lies there)."""
-    d = preset("basis").replace(hinge_thickness_mm=(0.5,) * 3 + (1.6,) + (0.5,) * 8)
-    pts = neck_points(d)
+@pytest.mark.parametrize("kerf", [0.0, 0.8])
+def test_neck_stations_follow_the_beam_rule_and_stay_on_the_faces(kerf):
+    """Stations from one thickness past where the beam model's uniform neck starts to one
+    before it ends (past the root fillets of the part as cut), or the middle station when
+    the neck is shorter than 2 t (thick hinges, e.g. dacm design's 5 N basis body, 1.24 mm
+    hinges on a 2.82 mm neck: no mesh corner lies there); on the neck's faces."""
     from geometry.layout import make_layout, make_parts
+    from geometry.topology import build_beam_model
 
+    d = preset("basis").replace(hinge_thickness_mm=(0.5,) * 3 + (1.6,) + (0.5,) * 8, kerf_mm=kerf)
+    pts = neck_points(d)
+    model = build_beam_model(d)
+    member = {int(model.hinge_number[i]): i for i in model.hinge_members}
     for p in make_parts(make_layout(d)):
         if p.kind != "hinge":
             continue
         a, b = p.axis
-        L = np.linalg.norm(b - a)
-        u = (b - a) / L
-        s = (pts[p.hinge] - a) @ u
+        u = (b - a) / np.linalg.norm(b - a)
+        i = member[p.hinge]
+        s = (pts[p.hinge] - model.nodes[model.member_nodes[i, 0]]) @ u   # member stations
         n = np.abs((pts[p.hinge] - a) @ np.array([-u[1], u[0]]))
         assert n == pytest.approx(p.width / 2, rel=1e-5)
-        if L >= 2 * p.width:
-            assert (s.min(), s.max()) == pytest.approx((p.width, L - p.width))
+        n0, n1 = model.neck_mm[i]
+        if n1 - n0 >= 2 * p.width:
+            assert (s.min(), s.max()) == pytest.approx((n0 + p.width, n1 - p.width))
         else:
-            assert s == pytest.approx(L / 2)
+            assert s == pytest.approx((n0 + n1) / 2)
 
 
 def test_default_profile_is_the_part_as_cut():
