@@ -11,15 +11,17 @@ station of the neck is
 
 on its more loaded face; on each face, N / (t b) -/+ 6 M(s) / (b t^2) (left / right of the
 member's axis). The peak stress sits in a root fillet, and each of the four (two ends, two
-faces) concentrates its own face's stress where the neck starts: times
-:func:`fillet_kt`, which is :func:`root_kt` (a function of r / t fitted to the continuum FE
-of cut parts, the form of Peterson's shoulder-fillet factors) where the fillet rounds a
-square or acute corner, and 1 where the face leans away from the neck (an obtuse corner:
-the continuum shows no concentration there, the acute fillet across has already widened
-the section). With an axial force the two faces differ, and the fillet of the less loaded
-face can govern. The drawn profile's sharp roots (r = 0) have no finite peak in linear
-elasticity; they carry :data:`SHARP_ROOT_KT`, the factor the thesis' specimens' cut roots
-were once given.
+faces) concentrates its own face's stress where it meets the neck by :func:`root_kt` (a
+function of r / t fitted to the continuum FE of cut parts, the form of Peterson's
+shoulder-fillet factors). Where a face leans from the hinge's normal, the fillet in its
+obtuse corner meets the neck nearer the face, in a section the acute fillet across has
+already widened (:func:`fillet_widening_mm`): its face's stress is taken there, in that
+widened section, whose centroid lies off the axis so that the axial force bends it too
+(the continuum shows such a fillet with no concentration in a bent hinge and the full one
+where an axial force leaves the face across unloaded). With an axial force the two faces
+differ, and the fillet of the less loaded face can govern. The drawn profile's sharp roots
+(r = 0) have no finite peak in linear elasticity; they carry :data:`SHARP_ROOT_KT`, the
+factor the thesis' specimens' cut roots were once given.
 """
 
 from __future__ import annotations
@@ -71,10 +73,10 @@ def root_kt(t_mm, radius_mm):
 
 
 def _nominal_stress(N, Ma, Mb, t, b, L, s):
-    """Axial plus bending stress (MPa) at stations s (mm) of members with end forces N,
-    Ma, Mb (arrays, one entry a member): |N| / (t b) + 6 |M(s)| / (b t^2),
-    M(s) = -Ma + (Ma + Mb) s / L."""
-    return np.abs(N) / (t * b) + 6.0 * np.abs(-Ma + (Ma + Mb) * s / L) / (b * t * t)
+    """Axial plus bending stress (MPa) at stations s (mm) on the more loaded face of
+    members with end forces N, Ma, Mb (arrays, one entry a member): |N| / (t b) +
+    6 |M(s)| / (b t^2) (:func:`_face_stress` of both faces, the larger)."""
+    return np.maximum(_face_stress(N, Ma, Mb, t, b, L, s, 1.0), _face_stress(N, Ma, Mb, t, b, L, s, -1.0))
 
 
 def _face_stress(N, Ma, Mb, t, b, L, s, side, across=0.0):
