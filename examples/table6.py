@@ -8,7 +8,7 @@ from sensor.mechanics.table6 import calibrate_modulus, table6_comparison
 
 
 def pct(model, thesis):
-    return f"{100 * (model / thesis - 1):+.0f} %"
+    return f"{round(100 * (model / thesis - 1)):+d} %"  # an int: -0.04 % prints as +0 %
 
 
 def main():

@@ -53,25 +53,31 @@ SCHEMA = "dacm-beam-model/1"
 MEMBER_KINDS = ("hinge", "link", "rigid")
 DOF_NAMES = ("x", "y", "rz")
 
-#: The hinge root rule of the part as cut (DESIGN sections 14 and 16): four constants,
-#: fitted once, by least squares on k_out in the linear limit, to the continuum FE of cut
-#: and drawn profiles that are not held out (tests/mechanics/data/continuum_table.json:
-#: kerf 0 to 1.2 mm, hinges 0.25-1.5 mm; tests/mechanics/test_root_rule.py refits them).
+#: The hinge root rule of the part as cut (DESIGN sections 14 and 16): four constants, of
+#: which three (``ROOT_DEPTH_PER_THICKNESS``, ``ROOT_DEPTH_PER_LEAN``,
+#: ``FILLET_SPREAD_SLOPE``) are fitted once, by least squares on k_out in the linear limit,
+#: to the continuum FE of cut and drawn profiles that are not held out
+#: (tests/mechanics/data/continuum_table.json: kerf 0 to 1.2 mm, hinges 0.25-1.5 mm, faces
+#: leaning 0-34 deg; tests/mechanics/test_root_rule.py refits them).
 #:
 #: A strip built into a wider elastic body is not clamped at the body's face: the material
 #: round its root turns and shears with it, a root compliance that scales with the strip's
-#: size there. The member reaches ``ROOT_DEPTH_PER_THICKNESS`` x t plus
-#: ``ROOT_DEPTH_PER_FILLET`` x the width its fillets add at the face past each face, less
-#: in a body that is not much deeper than that (a 2 mm plate or knee block under a 1 mm
-#: hinge): ``ROOT_BODY_DEPTHS`` sets where that begins (:func:`root_depth_mm`).
-ROOT_DEPTH_PER_THICKNESS = 0.57
-ROOT_DEPTH_PER_FILLET = 0.13
+#: size there. The member reaches ``ROOT_DEPTH_PER_THICKNESS`` x t past each face, and
+#: ``ROOT_DEPTH_PER_LEAN`` x t sin(gamma) further where the face leans gamma from the
+#: neck's normal (an oblique strip leaves the face over t / cos(gamma) and turns a wedge of
+#: the body with it: a plane-stress FE of one hinge between a block and a link,
+#: tests/mechanics/hinge_substructure.py, shows the rotational compliance grow with sin(gamma)
+#: and t, not with the fillet's width), less in a body that is not much deeper than that
+#: (a 2 mm plate or knee block under a 1 mm hinge): ``ROOT_BODY_DEPTHS`` sets where that
+#: begins (:func:`root_depth_mm`).
+ROOT_DEPTH_PER_THICKNESS = 0.29
+ROOT_DEPTH_PER_LEAN = 1.02
 ROOT_BODY_DEPTHS = 0.56
 #: A root fillet widens the neck faster than the bending stress can spread into it (plane
 #: sections do not stay plane where the section grows steeply): each side's fillet counts
 #: up to ``FILLET_SPREAD_SLOPE`` x the distance from where it meets the neck (a load-spread
 #: angle of about 15 deg), the rest of the arc carries little.
-FILLET_SPREAD_SLOPE = 0.26
+FILLET_SPREAD_SLOPE = 0.27
 #: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
 #: points and taken linear between them: the flexibility integrals of a quarter circle
 #: sampled at 8 points are within 0.1 % of the exact arc's).
@@ -137,13 +143,13 @@ def _unit(v) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def root_depth_mm(t_mm: float, face_mm: float, body_mm: float = math.inf) -> float:
-    """How far past a face (mm) a hinge of neck thickness t, t_face wide where it leaves
-    the face, is effectively clamped in a body ``body_mm`` deep (see
-    :data:`ROOT_DEPTH_PER_THICKNESS`): the half-space depth D0 = ROOT_DEPTH_PER_THICKNESS t +
-    ROOT_DEPTH_PER_FILLET (t_face - t), less in a body not much deeper than it,
-    D0 / (1 + D0 / (ROOT_BODY_DEPTHS x body))."""
-    d0 = ROOT_DEPTH_PER_THICKNESS * t_mm + ROOT_DEPTH_PER_FILLET * (face_mm - t_mm)
+def root_depth_mm(t_mm: float, gamma_deg: float = 0.0, body_mm: float = math.inf) -> float:
+    """How far past a face (mm) a hinge of neck thickness t, leaving a face whose normal
+    leans ``gamma_deg`` from its axis, is effectively clamped in a body ``body_mm`` deep (see
+    :data:`ROOT_DEPTH_PER_THICKNESS`): the half-space depth
+    D0 = t (ROOT_DEPTH_PER_THICKNESS + ROOT_DEPTH_PER_LEAN sin gamma), less in a body not
+    much deeper than it, D0 / (1 + D0 / (ROOT_BODY_DEPTHS x body))."""
+    d0 = t_mm * (ROOT_DEPTH_PER_THICKNESS + ROOT_DEPTH_PER_LEAN * math.sin(math.radians(abs(gamma_deg))))
     return d0 / (1.0 + d0 / (ROOT_BODY_DEPTHS * body_mm))
 
 
@@ -197,11 +203,10 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
     The neck of thickness t and drawn length l_h runs between two faces; at each face the
     cut leaves a fillet of radius r in both re-entrant corners (``ends``: (r, shoulder,
     gamma_deg, body depth) at the start and at the end, see :func:`_fillet_sides` and
-    :func:`root_depth_mm`; r = kerf / 2 for a
-    water-jet, 0 for the drawing). The strip leaves the face, where the first fillet
-    leaves it, t plus both fillets' heights wide; the member reaches
-    :data:`ROOT_DEPTH_PER_THICKNESS` x that width further, into the body, where the elastic
-    root is taken as clamped.
+    :func:`root_depth_mm`; r = kerf / 2 for a water-jet, 0 for the drawing). The strip
+    leaves the face, where the first fillet leaves it, t plus both fillets' heights wide;
+    the member reaches :func:`root_depth_mm` further, into the body, at that width, where
+    the elastic root is taken as clamped.
 
     Cached (a sweep's cells share their hinges); the stations are read-only.
     Returns (stations (k, 2) of s and t, (s0, s1) where the uniform neck starts and ends,
@@ -225,7 +230,7 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
                           for a, (f, n, r) in zip(start, end))
 
     t = width(s)
-    da, db = root_depth_mm(t_mm, t[0], ends[0][3]), root_depth_mm(t_mm, t[-1], ends[1][3])
+    da, db = root_depth_mm(t_mm, *ends[0][2:4]), root_depth_mm(t_mm, *ends[1][2:4])
     st = np.column_stack([np.concatenate([[face0 - da], s, [face1 + db]]),
                           np.concatenate([[t[0]], t, [t[-1]]])])
     shift = da - face0  # the member starts this far behind the start face's axis crossing
@@ -262,8 +267,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     numbered as in Figure 48 (see geometry.params).
 
     Each hinge member is the neck with its root fillets (:func:`hinge_profile`), reaching
-    :data:`ROOT_DEPTH_PER_THICKNESS` x its face width into the body it joins and into the
-    link.
+    its root depth (:func:`root_depth_mm`) into the body it joins and into the link.
 
     The base plate is clamped. With ``input_guided`` (the default) the input port is guided
     sideways (its x is held), as the thesis' X-stage held it when it pushed the specimens

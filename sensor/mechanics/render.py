@@ -215,7 +215,7 @@ def displacement_field(points: np.ndarray, parts: list[Part], motions: list[Part
             u[sel] = _rigid(points[sel], X0[mo.node], x[mo.node] - X0[mo.node], float(th[mo.node]))
         else:
             # a hinge member reaches past its drawn neck into the bodies it joins (see
-            # geometry.topology.ROOT_DEPTH_PER_THICKNESS): its end states are carried rigidly
+            # geometry.topology.root_depth_mm): its end states are carried rigidly
             # back to the part's own axis ends, so neighbouring parts meet exactly
             a, b = mo.start, mo.end
             A, B = _inner_ends(parts[i].axis, X0[a], X0[b])

@@ -178,7 +178,7 @@ def _rigid_linkage_amplification(design):
         return c, k
 
     # a hinge's outer node sits inside the body it joins, rigidly tied to the body's node on
-    # its face (geometry.topology.ROOT_DEPTH_PER_THICKNESS): classify by that face node
+    # its face (geometry.topology.root_depth_mm): classify by that face node
     face = {int(e): int(s) for k, (s, e), name in zip(m.member_kind, m.member_nodes, m.member_name)
             if k == "rigid" and name.endswith("root")}
     for j, li in enumerate(links):

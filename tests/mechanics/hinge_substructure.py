@@ -1,0 +1,141 @@
+"""One hinge between a block and a link, in plane stress: the substructure the root rule
+(geometry.topology.root_depth_mm) describes, as a continuum reference independent of the
+beam model.
+
+A neck of thickness t leaves the top face of a block (16 x 6 mm, its bottom edge clamped)
+along an axis that leans ``gamma_deg`` from the face's normal, runs the drawn neck length
+(measured along the axis from where it crosses the face) and enters a link 2 mm wide
+square to it, whose end lies 5 mm further on. Every re-entrant corner is rounded with the
+jet's radius r (a morphological closing of the outline). Loads on the link's end: an axial
+force, a transverse force and a moment, as tractions (uniform, uniform, linear across);
+the compliance is the work-conjugate one, C_jk = int traction_j . u_k ds per unit load
+(symmetric by Betti). Quadratic triangles (scikit-fem), elements of min(t, r) / n_across
+at the neck, growing away from it (gmsh).
+
+The beam side is the model's own hinge member (geometry.topology.hinge_profile, its
+flexibility by sensor.mechanics.solver.profile_flexibility) carried rigidly from the
+block's effective root to the link, and the rest of the link as a cantilever.
+"""
+
+import math
+
+import numpy as np
+
+from geometry.topology import hinge_profile
+from sensor.mechanics.solver import cantilever_flexibility, profile_flexibility
+
+E_MPA, NU = 1000.0, 0.35
+G_MPA = E_MPA / (2 * (1 + NU))
+BLOCK_MM = (16.0, 6.0)     # width, depth (the bottom edge clamped)
+LINK_MM = (2.0, 5.0)       # width, length past the neck
+
+
+def _axes(gamma_deg):
+    g = math.radians(gamma_deg)
+    u = np.array([math.sin(g), math.cos(g)])   # along the neck, away from the block
+    return u, np.array([-u[1], u[0]])           # and across it
+
+
+def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1]):
+    """The substructure's outline (shapely Polygon, mm; the neck's axis crosses the block's
+    face at the origin)."""
+    from shapely.geometry import Polygon, box
+    from shapely.ops import unary_union
+
+    u, v = _axes(gamma_deg)
+
+    def strip(s0, s1, w):
+        return Polygon([s0 * u + v * w / 2, s1 * u + v * w / 2, s1 * u - v * w / 2, s0 * u - v * w / 2])
+
+    (bw, bd), lw = BLOCK_MM, LINK_MM[0]
+    shape = unary_union([box(-bw / 2, -bd, bw / 2, 0.0), strip(-2 * t, neck_mm, t),
+                         strip(neck_mm, neck_mm + link_mm, lw)])
+    if r > 0:  # closing: re-entrant corners rounded with r, convex ones kept sharp (mitred)
+        shape = shape.buffer(r, join_style="mitre", mitre_limit=10.0).buffer(-r, quad_segs=48)
+    return shape.simplify(1e-5)
+
+
+def _mesh(shape, size):
+    import gmsh
+
+    xy = np.array(shape.exterior.coords)[:-1]
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(float(x), float(y), 0.0) for x, y in xy]
+        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        for key in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
+            gmsh.option.setNumber(key, 0)
+        gmsh.option.setNumber("Mesh.Algorithm", 6)
+        gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
+        gmsh.model.mesh.generate(2)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        types, _, nodes = gmsh.model.mesh.getElements(2)
+    finally:
+        gmsh.finalize()
+    tri = np.asarray(nodes[list(types).index(2)], dtype=np.int64).reshape(-1, 3)
+    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+    index[tags.astype(np.int64)] = np.arange(len(tags))
+    points = xyz.reshape(-1, 3)[:, :2]
+    tri = index[tri]
+    used = np.unique(tri)
+    remap = np.zeros(len(points), dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return points[used], remap[tri]
+
+
+def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
+    """Plane-stress compliance (3, 3) of the link's end, unit depth: [axial, transverse,
+    rotation] per [axial force, transverse force, moment] (mm/N, rad/(N mm)), loads along
+    and across the neck's axis, the moment counter-clockwise."""
+    from skfem import Basis, ElementTriP2, ElementVector, FacetBasis, LinearForm, MeshTri, asm, condense, solve
+    from skfem.models.elasticity import linear_elasticity
+
+    from sensor.mechanics.continuum import _lame
+
+    lw, ll = LINK_MM[0], link_mm or LINK_MM[1]
+    u, v = _axes(gamma_deg)
+    end = (neck_mm + ll) * u
+    h = min(t, r if r > 0 else t) / n_across
+
+    def size(x, y):
+        p = np.array([x, y])
+        s = float(np.clip(p @ u, 0.0, neck_mm))
+        return float(min(h + 0.35 * max(np.linalg.norm(p - s * u) - t, 0.0), lw / 3))
+
+    points, tri = _mesh(outline(t, neck_mm, gamma_deg, r, ll), size)
+    mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(tri.T))
+    basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
+    K = asm(linear_elasticity(*_lame(E_MPA, NU, plane_strain=False)), basis)
+    fixed = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] < -BLOCK_MM[1] + 1e-7, boundaries_only=True)).all()
+    facets = mesh.facets_satisfying(lambda x: np.abs((x[0] - end[0]) * u[0] + (x[1] - end[1]) * u[1]) < 1e-6,
+                                    boundaries_only=True)
+    fb = FacetBasis(mesh, basis.elem, facets=facets, intorder=4)
+    inertia = lw**3 / 12
+
+    def load(k):
+        @LinearForm
+        def form(w, p):
+            xi = (p.x[0] - end[0]) * v[0] + (p.x[1] - end[1]) * v[1]   # across the end
+            mag = (1.0 / lw + 0.0 * xi) if k < 2 else -xi / inertia     # moment: sigma = -M xi / I
+            d = u if k != 1 else v
+            return mag * (d[0] * w[0] + d[1] * w[1])
+        return asm(form, fb)
+
+    F = np.column_stack([load(k) for k in range(3)])
+    U = np.column_stack([solve(*condense(K, F[:, k], D=fixed)) for k in range(3)])
+    return F.T @ U
+
+
+def beam_compliance(t, neck_mm, gamma_deg, r):
+    """The beam model's compliance of the same end (see :func:`fe_compliance`)."""
+    lw, ll = LINK_MM
+    ends = ((r, 1e3, gamma_deg, BLOCK_MM[1]), (r, (lw - t) / 2, 0.0, lw))
+    stations, _, length, behind, _ = hinge_profile(t, neck_mm, ends)
+    hinge = profile_flexibility(np.asarray(stations), 1.0, E_MPA, G_MPA)
+    rest = neck_mm + ll - (length - behind)          # the link past the hinge member's end
+    carry = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, rest, 1.0]])  # end loads at the member's tip
+    return cantilever_flexibility(rest, lw, 1.0, E_MPA, G_MPA) + carry.T @ hinge @ carry
