@@ -217,10 +217,18 @@ def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
         except Exception as exc:  # noqa: BLE001 (gmsh reports every failure as a plain Exception)
             raise SolverError(f"gmsh could not mesh the profile of {design.name!r} at "
                               f"{n_across:g} elements across a hinge: {exc}") from None
-        tags, xyz, _ = gmsh.model.mesh.getNodes()
-        etypes, _, enodes = gmsh.model.mesh.getElements(2)
+        return generated_triangles()
     finally:
         gmsh.finalize()
+
+
+def generated_triangles() -> tuple[np.ndarray, np.ndarray]:
+    """The linear triangles of the 2D mesh gmsh has just generated (in an open gmsh session):
+    points (N, 2) and triangles (M, 3) indexing them, nodes no triangle uses dropped."""
+    import gmsh
+
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    etypes, _, enodes = gmsh.model.mesh.getElements(2)
     tri = np.asarray(enodes[list(etypes).index(2)], dtype=np.int64).reshape(-1, 3)
     index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     index[tags.astype(np.int64)] = np.arange(len(tags))

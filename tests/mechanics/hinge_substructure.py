@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from geometry.topology import hinge_profile
+from sensor.mechanics.continuum import generated_triangles
 from sensor.mechanics.solver import cantilever_flexibility, profile_flexibility
 
 E_MPA, NU = 1000.0, 0.35
@@ -72,19 +73,9 @@ def _mesh(shape, size):
         gmsh.option.setNumber("Mesh.Algorithm", 6)
         gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
         gmsh.model.mesh.generate(2)
-        tags, xyz, _ = gmsh.model.mesh.getNodes()
-        types, _, nodes = gmsh.model.mesh.getElements(2)
+        return generated_triangles()
     finally:
         gmsh.finalize()
-    tri = np.asarray(nodes[list(types).index(2)], dtype=np.int64).reshape(-1, 3)
-    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-    index[tags.astype(np.int64)] = np.arange(len(tags))
-    points = xyz.reshape(-1, 3)[:, :2]
-    tri = index[tri]
-    used = np.unique(tri)
-    remap = np.zeros(len(points), dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return points[used], remap[tri]
 
 
 def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
