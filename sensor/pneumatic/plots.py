@@ -191,7 +191,8 @@ def sensor_figure(res) -> Figure:
         a.plot(t, w.environment_force.values, color="tab:blue", lw=0.9, label="contact force")
         a.plot(t, w.desired_force_N.values, color="k", ls="--", lw=0.8, label="F_d")
         a.set(xlabel="time (s)", ylabel="force (N)", title=name)
-        a.legend(fontsize=8, loc="upper right")
+    # one legend for the time panels, above them: inside a panel it covered the peaks
+    fig.legend(*ax[0].get_legend_handles_labels(), loc="outside upper left", ncols=3, fontsize=8)
     a = ax[-1]
     for j, (kind, colour) in enumerate((("DACM", "tab:blue"), ("load cell", "tab:gray"))):
         vals = [next(r["force_mse_N2"] for r in rows if r["sensor"] == n and r["reading"].startswith(kind)) for n in names]
