@@ -144,8 +144,9 @@ def _unit(v) -> np.ndarray:
 
 
 def root_depth_mm(t_mm: float, gamma_deg: float = 0.0, body_mm: float = math.inf) -> float:
-    """How far past a face (mm) a hinge of neck thickness t, leaving a face whose normal
-    leans ``gamma_deg`` from its axis, is effectively clamped in a body ``body_mm`` deep (see
+    """How far past a face (mm) a hinge of neck thickness t (mm), leaving a face whose normal
+    leans ``gamma_deg`` (deg, either way: its sign does not count) from its axis, is
+    effectively clamped in a body ``body_mm`` deep (see
     :data:`ROOT_DEPTH_PER_THICKNESS`): the half-space depth
     D0 = t (ROOT_DEPTH_PER_THICKNESS + ROOT_DEPTH_PER_LEAN sin gamma), less in a body not
     much deeper than it, D0 / (1 + D0 / (ROOT_BODY_DEPTHS x body))."""
@@ -230,7 +231,8 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
                           for a, (f, n, r) in zip(start, end))
 
     t = width(s)
-    da, db = root_depth_mm(t_mm, *ends[0][2:4]), root_depth_mm(t_mm, *ends[1][2:4])
+    da = root_depth_mm(t_mm, gamma_deg=ends[0][2], body_mm=ends[0][3])
+    db = root_depth_mm(t_mm, gamma_deg=ends[1][2], body_mm=ends[1][3])
     st = np.column_stack([np.concatenate([[face0 - da], s, [face1 + db]]),
                           np.concatenate([[t[0]], t, [t[-1]]])])
     shift = da - face0  # the member starts this far behind the start face's axis crossing

@@ -28,6 +28,7 @@ CadQuery (imported when called).
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
 
@@ -177,15 +178,10 @@ def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
     """Linear triangles (points (N, 2), triangles (M, 3)) of the profile cut with ``kerf_mm``
     (see :func:`cut_profile_loops`), ``n_across`` elements across each hinge; vertices at
     the punch's edges on the top face."""
-    import gmsh
-
     outline, holes = cut_profile_loops(design, kerf_mm)
     outline = _split_at(outline, (-punch_width_mm / 2, punch_width_mm / 2), design.height_mm)
     size, _ = _size_function(design, n_across, design.kerf_mm if kerf_mm is None else kerf_mm)
-    gmsh.initialize(["-noenv"], readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("profile")
+    with gmsh_session("profile") as gmsh:
         geo = gmsh.model.geo
         loops = []
         for loop in [outline] + list(holes):
@@ -207,26 +203,40 @@ def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
             loops.append(geo.addCurveLoop(curves))
         geo.addPlaneSurface(loops)
         geo.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-        gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 6)
-        gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
         try:
-            gmsh.model.mesh.generate(2)
+            return mesh_surface(size)
         except Exception as exc:  # noqa: BLE001 (gmsh reports every failure as a plain Exception)
             raise SolverError(f"gmsh could not mesh the profile of {design.name!r} at "
                               f"{n_across:g} elements across a hinge: {exc}") from None
-        return generated_triangles()
+
+
+@contextlib.contextmanager
+def gmsh_session(name: str):
+    """An initialised gmsh (no configuration files, no terminal output) with an empty model
+    ``name``, finalised on leaving."""
+    import gmsh
+
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(name)
+        yield gmsh
     finally:
         gmsh.finalize()
 
 
-def generated_triangles() -> tuple[np.ndarray, np.ndarray]:
-    """The linear triangles of the 2D mesh gmsh has just generated (in an open gmsh session):
-    points (N, 2) and triangles (M, 3) indexing them, nodes no triangle uses dropped."""
+def mesh_surface(size) -> tuple[np.ndarray, np.ndarray]:
+    """Linear triangles of the plane surface of the open gmsh model, element size
+    ``size(x, y)`` (mm) everywhere (from nothing else: not the points, the boundary or the
+    curvature): points (N, 2) and triangles (M, 3) indexing them, nodes no triangle uses
+    dropped."""
     import gmsh
 
+    for option in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
+        gmsh.option.setNumber(option, 0)
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
+    gmsh.model.mesh.generate(2)
     tags, xyz, _ = gmsh.model.mesh.getNodes()
     etypes, _, enodes = gmsh.model.mesh.getElements(2)
     tri = np.asarray(enodes[list(etypes).index(2)], dtype=np.int64).reshape(-1, 3)

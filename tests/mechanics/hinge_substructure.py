@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from geometry.topology import hinge_profile
-from sensor.mechanics.continuum import generated_triangles
+from sensor.mechanics.continuum import gmsh_session, mesh_surface
 from sensor.mechanics.solver import cantilever_flexibility, profile_flexibility
 
 E_MPA, NU = 1000.0, 0.35
@@ -56,28 +56,6 @@ def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1]):
     return shape.simplify(1e-5)
 
 
-def _mesh(shape, size):
-    import gmsh
-
-    xy = np.array(shape.exterior.coords)[:-1]
-    gmsh.initialize(["-noenv"], readConfigFiles=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        geo = gmsh.model.geo
-        pts = [geo.addPoint(float(x), float(y), 0.0) for x, y in xy]
-        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
-        geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.synchronize()
-        for key in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints", "Mesh.MeshSizeFromCurvature"):
-            gmsh.option.setNumber(key, 0)
-        gmsh.option.setNumber("Mesh.Algorithm", 6)
-        gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
-        gmsh.model.mesh.generate(2)
-        return generated_triangles()
-    finally:
-        gmsh.finalize()
-
-
 def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
     """Plane-stress compliance (3, 3) of the link's end, unit depth: [axial, transverse,
     rotation] per [axial force, transverse force, moment] (mm/N, rad/(N mm)), loads along
@@ -97,7 +75,14 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
         s = float(np.clip(p @ u, 0.0, neck_mm))
         return float(min(h + 0.35 * max(np.linalg.norm(p - s * u) - t, 0.0), lw / 3))
 
-    points, tri = _mesh(outline(t, neck_mm, gamma_deg, r, ll), size)
+    xy = np.array(outline(t, neck_mm, gamma_deg, r, ll).exterior.coords)[:-1]
+    with gmsh_session("hinge") as gmsh:
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(float(x), float(y), 0.0) for x, y in xy]
+        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        points, tri = mesh_surface(size)
     mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(tri.T))
     basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
     K = asm(linear_elasticity(*_lame(E_MPA, NU, plane_strain=False)), basis)
@@ -106,17 +91,19 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
                                     boundaries_only=True)
     fb = FacetBasis(mesh, basis.elem, facets=facets, intorder=4)
     inertia = lw**3 / 12
+    # each load: its direction and its traction (N/mm per unit load) at xi across the end
+    loads = ((u, lambda xi: np.full_like(xi, 1.0 / lw)),      # axial force
+             (v, lambda xi: np.full_like(xi, 1.0 / lw)),      # transverse force
+             (u, lambda xi: -xi / inertia))                   # moment: sigma = -M xi / I
 
-    def load(k):
+    def assemble(direction, traction):
         @LinearForm
         def form(w, p):
-            xi = (p.x[0] - end[0]) * v[0] + (p.x[1] - end[1]) * v[1]   # across the end
-            mag = (1.0 / lw + 0.0 * xi) if k < 2 else -xi / inertia     # moment: sigma = -M xi / I
-            d = u if k != 1 else v
-            return mag * (d[0] * w[0] + d[1] * w[1])
+            xi = (p.x[0] - end[0]) * v[0] + (p.x[1] - end[1]) * v[1]
+            return traction(xi) * (direction[0] * w[0] + direction[1] * w[1])
         return asm(form, fb)
 
-    F = np.column_stack([load(k) for k in range(3)])
+    F = np.column_stack([assemble(*load) for load in loads])
     U = np.column_stack([solve(*condense(K, F[:, k], D=fixed)) for k in range(3)])
     return F.T @ U
 
@@ -124,7 +111,7 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
 def beam_compliance(t, neck_mm, gamma_deg, r):
     """The beam model's compliance of the same end (see :func:`fe_compliance`)."""
     lw, ll = LINK_MM
-    ends = ((r, 1e3, gamma_deg, BLOCK_MM[1]), (r, (lw - t) / 2, 0.0, lw))
+    ends = ((r, math.inf, gamma_deg, BLOCK_MM[1]), (r, (lw - t) / 2, 0.0, lw))  # the block's face is long
     stations, _, length, behind, _ = hinge_profile(t, neck_mm, ends)
     hinge = profile_flexibility(np.asarray(stations), 1.0, E_MPA, G_MPA)
     rest = neck_mm + ll - (length - behind)          # the link past the hinge member's end

@@ -4,12 +4,11 @@ plane stress, against the beam model's hinge member (geometry.topology.root_dept
 
 The rule's constants are fitted to the bodies of the continuum table
 (tests/mechanics/test_root_rule.py); these tests check its form on a reference that no fit
-has seen: the rotational compliance of a root grows with t sin(gamma), not with the
-fillet's width."""
+has seen: the rotational compliance of a root grows with t sin(gamma)."""
 
 import numpy as np
 import pytest
-from scipy.optimize import minimize
+from scipy.optimize import minimize, minimize_scalar
 
 import geometry.topology as topology
 from tests.mechanics.hinge_substructure import E_MPA, LINK_MM, beam_compliance, fe_compliance
@@ -22,24 +21,28 @@ SUBSTRUCTURES = ([(t, g, 0.4) for t in (0.3, 0.75, 1.25) for g in (0.0, 15.0, 32
 
 
 @pytest.fixture(scope="module")
-def fe_rotation():
-    """The FE's rotational compliance C_MM (rad / (N mm), unit depth) of each substructure."""
-    return {s: fe_compliance(s[0], NECK_MM, *s[1:])[2, 2] for s in SUBSTRUCTURES}
+def fe():
+    """The FE's compliance (3, 3) of each substructure."""
+    return {s: fe_compliance(s[0], NECK_MM, *s[1:]) for s in SUBSTRUCTURES}
 
 
-def rotation_errors_pct(fe_rotation, monkeypatch, per_thickness, per_lean) -> np.ndarray:
+def errors_pct(fe, monkeypatch, per_thickness, per_lean, entry=(2, 2)) -> np.ndarray:
+    """The beam's compliance against the FE's (percent) on every substructure, with the given
+    root-rule constants; ``entry`` of the compliance (default the rotation under a moment)."""
     monkeypatch.setattr(topology, "ROOT_DEPTH_PER_THICKNESS", float(per_thickness))
     monkeypatch.setattr(topology, "ROOT_DEPTH_PER_LEAN", float(per_lean))
     topology.hinge_profile.cache_clear()
-    errors = [100 * (beam_compliance(s[0], NECK_MM, *s[1:])[2, 2] / c - 1) for s, c in fe_rotation.items()]
+    errors = [100 * (beam_compliance(s[0], NECK_MM, *s[1:])[entry] / c[entry] - 1) for s, c in fe.items()]
     topology.hinge_profile.cache_clear()
     return np.array(errors)
 
 
 def test_fe_reference_is_exact_on_the_uniform_link():
     """Two more millimetres of the 2 mm link add exactly 2 / (E A) axially and 2 / (E I) in
-    rotation (plane stress, pure tension and pure bending are quadratic fields: the
-    quadratic elements hold them exactly; 0.01 % is round-off of the traction quadrature)."""
+    rotation (plane stress: pure tension and pure bending are quadratic fields, which the
+    quadratic elements hold exactly, and the end tractions are integrated exactly): what
+    is left is the two meshes' difference round the neck, 8e-6 at 6 elements across
+    (1.5e-4 at 3), hence 1e-4."""
     short, long = (fe_compliance(0.75, NECK_MM, 22.0, 0.4, link_mm=ll) for ll in (5.0, 7.0))
     w = LINK_MM[0]
     assert long[0, 0] - short[0, 0] == pytest.approx(2.0 / (E_MPA * w), rel=1e-4)
@@ -48,34 +51,36 @@ def test_fe_reference_is_exact_on_the_uniform_link():
 
 def test_fe_reference_is_mesh_converged():
     """6 and 9 elements across the neck (and the fillet's radius) agree within 0.05 % on the
-    leaning hinge's rotation and its coupling to a transverse force."""
+    leaning hinge's rotation and its coupling to a transverse force (measured 1e-5)."""
     coarse, fine = (fe_compliance(0.75, NECK_MM, 32.3, 0.4, n_across=n) for n in (6.0, 9.0))
     assert coarse[2, 2] == pytest.approx(fine[2, 2], rel=5e-4)
     assert coarse[1, 2] == pytest.approx(fine[1, 2], rel=5e-4)
 
 
-def test_root_depth_grows_with_t_sin_gamma(fe_rotation, monkeypatch):
+def test_root_depth_grows_with_t_sin_gamma(fe, monkeypatch):
     """The rule's form, its two depth constants fitted to these 13 substructures alone
-    (measured: 0.48 t + 0.52 t sin gamma), holds every one within 1 % (measured 0.59 %); a
-    depth that ignores the lean cannot (refitted alone: 2.3 % at worst, the leaning thick
-    hinges softer than it says). The fillet's width needs no term of its own."""
-    def worst(p):
-        return float(np.abs(rotation_errors_pct(fe_rotation, monkeypatch, *p)).max())
-
-    with_lean = minimize(lambda p: np.sqrt(np.mean(rotation_errors_pct(fe_rotation, monkeypatch, *p) ** 2)),
+    (measured: 0.48 t + 0.52 t sin gamma), holds every one within 1 % (measured 0.59 %:
+    the beam model's own accuracy on one hinge, its shear and fillet terms included); the
+    best depth that ignores the lean, chosen for the smallest worst error, cannot
+    (measured 2.24 % at 0.60 t: the leaning thick hinges softer than it says, the square
+    ones stiffer)."""
+    with_lean = minimize(lambda p: np.sqrt(np.mean(errors_pct(fe, monkeypatch, *p) ** 2)),
                          [0.5, 0.5], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3})
-    without = minimize(lambda p: np.sqrt(np.mean(rotation_errors_pct(fe_rotation, monkeypatch, p[0], 0.0) ** 2)),
-                       [0.5], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3})
+    without = minimize_scalar(lambda a: np.abs(errors_pct(fe, monkeypatch, a, 0.0)).max(),
+                              bounds=(0.2, 1.2), method="bounded", options={"xatol": 1e-3})
     assert with_lean.x[1] > 0.3, with_lean.x
-    assert worst(with_lean.x) < 1.0, with_lean.x
-    assert worst([without.x[0], 0.0]) > 2.0, without.x
+    assert np.abs(errors_pct(fe, monkeypatch, *with_lean.x)).max() < 1.0, with_lean.x
+    assert without.fun > 2.0, (without.x, without.fun)
 
 
-def test_stored_rule_within_5_percent_of_every_substructure(fe_rotation, monkeypatch):
-    """The stored constants, fitted to whole bodies, against the isolated hinge: within 5 %
-    on every substructure (measured -4.0 to 0.0 %: the bodies want a shallower root at a
-    square face and a deeper one at a leaning face than one hinge in a clamped block shows,
-    what their knees, plates and links add round the roots)."""
-    errors = rotation_errors_pct(fe_rotation, monkeypatch, topology.ROOT_DEPTH_PER_THICKNESS,
-                                 topology.ROOT_DEPTH_PER_LEAN)
-    assert np.abs(errors).max() < 5.0, np.round(errors, 2)
+def test_stored_rule_against_every_substructure(fe, monkeypatch):
+    """The stored constants, fitted to whole bodies, against the isolated hinge. Measured:
+    rotation -4.0 to 0.0 %, its coupling to a transverse force (where the hinge's effective
+    pivot sits; its sign checks the load and transport conventions) -5.1 to +0.6 %: the
+    bodies want a shallower root at a square face and a deeper one at a leaning face than one
+    hinge in a clamped block shows, what their knees, plates and links add round the roots.
+    A guard, not a target: 5 and 6 %, about 1 point over the measured, so that a refit
+    pulling the rule further from one hinge's mechanics is looked at."""
+    stored = topology.ROOT_DEPTH_PER_THICKNESS, topology.ROOT_DEPTH_PER_LEAN
+    assert np.abs(errors_pct(fe, monkeypatch, *stored)).max() < 5.0
+    assert np.abs(errors_pct(fe, monkeypatch, *stored, entry=(1, 2))).max() < 6.0
