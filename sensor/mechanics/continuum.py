@@ -148,7 +148,7 @@ def _size_function(design: Design, n_across: float, kerf_mm: float = 0.0):
         near = h_root + 0.5 * np.maximum(np.linalg.norm(roots - p, axis=1) - root_reach, 0.0)
         return float(min(h.min(), near.min(), h_max))
 
-    return size, float(h_min.min())
+    return size
 
 
 def _arc_centre(s, e, bulge):
@@ -180,7 +180,7 @@ def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
     the punch's edges on the top face."""
     outline, holes = cut_profile_loops(design, kerf_mm)
     outline = _split_at(outline, (-punch_width_mm / 2, punch_width_mm / 2), design.height_mm)
-    size, _ = _size_function(design, n_across, design.kerf_mm if kerf_mm is None else kerf_mm)
+    size = _size_function(design, n_across, design.kerf_mm if kerf_mm is None else kerf_mm)
     with gmsh_session("profile") as gmsh:
         geo = gmsh.model.geo
         loops = []
@@ -587,7 +587,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         hinge_stress_MPa=stress, hinge_peak_station_mm=station, hinge_neck_stress_MPa=neck,
         hinge_corner_stress_MPa=corner,
         kerf_mm=float(kerf), plane_strain=plane_strain, nonlinear=nonlinear,
-        mesh=str(mesh), elements_across=n_across, size_mm=_size_function(design, n_across)[1],
+        mesh=str(mesh), elements_across=n_across, size_mm=min(design.used_thickness_mm) / n_across,
         n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,
         displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm,
         negative_modes=negative)

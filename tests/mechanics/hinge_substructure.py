@@ -68,7 +68,7 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
     lw, ll = LINK_MM[0], link_mm or LINK_MM[1]
     u, v = _axes(gamma_deg)
     end = (neck_mm + ll) * u
-    h = min(t, r if r > 0 else t) / n_across
+    h = (min(t, r) if r > 0 else t) / n_across
 
     def size(x, y):
         p = np.array([x, y])
