@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
             f"{out['beam']['hinge_peak_stress_MPa'][h]:6.1f}")
         print(f"    hinge {h:>2}: {fe:7.2f} / {beam[0]}   peak: "
               f"{out['fe']['hinge_peak_stress_MPa'][h]:6.1f} / {beam[1]}")
+    _print_stress_verdict(out, design, args.target_output)
     if out["stability"] and not out["stability"]["stable"]:
         n = out["stability"]["negative_modes"]
         print(f"  the continuum state at {args.target_output:g} mm is unstable ({n} negative mode{'s' * (n > 1)} "
@@ -101,3 +102,20 @@ def run(args: argparse.Namespace) -> int:
     if paths:
         print(f"wrote {args.out / paths[0].name}")
     return 0
+
+
+def _print_stress_verdict(out: dict, design, travel_mm: float) -> None:
+    """The largest hinge peak against the material's allowable stress, and a warning when the
+    part passes it before the travel compared (an elastic state the part as cut does not
+    hold: delrin creeps above its allowable stress and yields around 60-70 MPa)."""
+    side = "fe" if out["fe"]["stress_utilisation"] is not None else "beam"
+    if out[side].get("stress_utilisation") is None:  # the beam went unstable at kerf 0
+        return
+    peak, hinge, util = (out[side][k] for k in ("peak_stress_MPa", "peak_stress_hinge", "stress_utilisation"))
+    allow = design.material.allowable_stress_MPa
+    where = "FE" if side == "fe" else "beam; the drawing's sharp corners make the FE's singular"
+    print(f"  largest peak at {travel_mm:g} mm ({where}): "
+          f"{peak:.1f} MPa at hinge {hinge}, {util:.2f} x the allowable {allow:g} MPa of {design.material.name}")
+    if util > 1.0:
+        print(f"  warning: the part passes its allowable stress before {travel_mm:g} mm "
+              f"({peak:.1f} > {allow:g} MPa): the values above are of an elastic state the part as cut does not hold")

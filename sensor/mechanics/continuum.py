@@ -713,8 +713,10 @@ class Verification:
     and ``hinge_peak_stress_MPa`` (beam: its Kt x the nominal root stress; FE: the peak von
     Mises stress in the neck and its root fillets on the finest mesh, converged with fillets,
     singular at the sharp corners of kerf 0), FE also ``hinge_peak_station_mm`` (where the
-    peak sits, see :class:`ContinuumResult`); ``errors_pct`` the beam's errors relative to
-    the FE. When the beam model's path stops being stable before the target (nonlinear),
+    peak sits, see :class:`ContinuumResult`); both also ``peak_stress_MPa``,
+    ``peak_stress_hinge`` and ``stress_utilisation`` (the largest peak against the
+    material's allowable stress; FE: None at kerf 0, where the peak is singular);
+    ``errors_pct`` the beam's errors relative to the FE. When the beam model's path stops being stable before the target (nonlinear),
     ``beam`` is ``{"unstable": why}`` and ``errors_pct`` is empty: compare ``fe.stable``.
     """
 
@@ -747,10 +749,22 @@ def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict
         return {"unstable": str(exc)}
     scale = target_output_mm / r.output_travel_mm
     s = hinge_stresses(model, r)
+    peak = {h: v.peak_MPa * scale for h, v in s.items()}
     return {"amplification": r.amplification, "k_out_N_per_mm": r.k_out_N_per_mm,
             "strain_energy_mJ": r.strain_energy_mJ * scale**2,
             "hinge_stress_MPa": {h: v.neck_MPa * scale for h, v in s.items()},
-            "hinge_peak_stress_MPa": {h: v.peak_MPa * scale for h, v in s.items()}}
+            "hinge_peak_stress_MPa": peak, **_utilisation(design, peak)}
+
+
+def _utilisation(design: Design, peak_MPa: dict | None) -> dict:
+    """``peak_stress_MPa`` (the largest hinge peak, MPa), the hinge it is at
+    (``peak_stress_hinge``) and ``stress_utilisation`` (peak / the material's allowable
+    stress, DESIGN section 14), as ``dacm solve --json`` names them; None without peaks."""
+    if not peak_MPa:
+        return {"peak_stress_MPa": None, "peak_stress_hinge": None, "stress_utilisation": None}
+    hinge = max(peak_MPa, key=peak_MPa.get)
+    return {"peak_stress_MPa": peak_MPa[hinge], "peak_stress_hinge": hinge,
+            "stress_utilisation": peak_MPa[hinge] / design.material.allowable_stress_MPa}
 
 
 def verify_design(design: Design, mesh: str | float = "default", plane_strain: bool = False,
@@ -770,6 +784,8 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     fe_summary["hinge_stress_MPa"] = dict(fe.hinge_neck_stress_MPa)
     fe_summary["hinge_peak_stress_MPa"] = dict(fe.hinge_stress_MPa)
     fe_summary["hinge_peak_station_mm"] = dict(fe.hinge_peak_station_mm)
+    # the fillets' peak converges; at the drawing's sharp corners it is singular: no verdict
+    fe_summary.update(_utilisation(design, fe.hinge_stress_MPa if design.kerf_mm > 0 else None))
     beam = _beam_side(design, target_output_mm, nonlinear)
     if "unstable" in beam:
         return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, {})

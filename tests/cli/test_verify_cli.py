@@ -29,6 +29,13 @@ def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
         assert out["errors_pct"][key] == pytest.approx(100 * (out["beam"][key] / out["fe"][key] - 1))
         c = out["convergence"][key]
         assert len(c["values"]) == 3 and c["elements_across"][-1] == pytest.approx(3.0)
+    # the stress verdict: the beam's largest peak against delrin's 36 MPa; none from the FE,
+    # whose peak at the drawing's sharp corners is singular
+    beam = out["beam"]
+    hinge = max(beam["hinge_peak_stress_MPa"], key=beam["hinge_peak_stress_MPa"].get)
+    assert (str(beam["peak_stress_hinge"]), beam["peak_stress_MPa"]) == (hinge, beam["hinge_peak_stress_MPa"][hinge])
+    assert beam["stress_utilisation"] == pytest.approx(beam["peak_stress_MPa"] / 36.0, rel=1e-12)
+    assert out["fe"]["peak_stress_MPa"] is None and out["fe"]["stress_utilisation"] is None
     # the beam model agrees with the continuum (the coarse mesh's own error is about 1 %)
     assert abs(out["errors_pct"]["k_out_N_per_mm"]) < 4.0
     assert (tmp_path / "basis-verify.png").stat().st_size > 10_000
@@ -85,6 +92,25 @@ def test_verify_works_on_design_outputs_as_cut(name, tmp_path, capsys):
             assert neck[str(a)] == pytest.approx(neck[str(b)], rel=0.03), (a, b)
             assert peak[str(a)] == pytest.approx(peak[str(b)], rel=0.03), (a, b)
     assert out["convergence"]["k_out_N_per_mm"]["error_pct"] < 5.0
+
+
+def test_verify_warns_when_the_part_passes_its_allowable_stress_before_the_travel(tmp_path, capsys):
+    """The basis specimen as cut, 2 mm output (linear, scaled): its largest FE peak (64 MPa,
+    the converged fillet peak) is 1.8 x delrin's allowable 36 MPa, so the elastic values are
+    of a state the cut part does not hold, and the text says so; at 1 mm (32 MPa) it does not."""
+    argv = ["verify", "--preset", "basis", "--mesh", "coarse", "--no-plots", "--target-output"]
+    assert main(argv + ["2", "--json"]) == 0
+    fe = json.loads(capsys.readouterr().out)["fe"]
+    assert fe["peak_stress_MPa"] == max(fe["hinge_peak_stress_MPa"].values())
+    assert fe["stress_utilisation"] == pytest.approx(fe["peak_stress_MPa"] / 36.0, rel=1e-12)
+    assert fe["stress_utilisation"] > 1.0
+    assert main(argv + ["2"]) == 0
+    text = capsys.readouterr().out
+    assert f"largest peak at 2 mm (FE): {fe['peak_stress_MPa']:.1f} MPa at hinge {fe['peak_stress_hinge']}" in text
+    assert "warning: the part passes its allowable stress before 2 mm" in text
+    assert main(argv + ["1"]) == 0
+    text = capsys.readouterr().out
+    assert "largest peak at 1 mm (FE)" in text and "warning" not in text
 
 
 def test_verify_text_says_the_part_is_as_cut(tmp_path, capsys):
