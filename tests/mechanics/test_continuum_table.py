@@ -86,15 +86,24 @@ NONLINEAR_MISSES = {"03-03-28-6": "k +4.08 %, A +2.25 %", "05-03-22-6": "k +6.62
 #:   accuracy can hold 1.5 % there (the drawn cells next to the toggle, 05-03-22-6 and
 #:   03-03-28-6, miss for the same reason); and the geometric stiffening of thick hinges
 #:   (thick-22-17.2, thick-28, thick-basis-22-1.1-L1.6: 3.2-4.1 % on k_out).
+#:   Five of the six are elastic states the part as cut does not hold: the continuum's peak
+#:   hinge stress at 1 mm is 71-109 MPa, 1.97-3.04 x delrin's allowable 36 MPa and past its
+#:   60-70 MPa yield (in the reasons below; ``dacm verify`` warns). like-9 (39 MPa, 1.1 x) is
+#:   the one inside delrin's elastic range. The linear misses are not about stress: the
+#:   best constants the rule's form allows (minimax over the 50 entries and 18 cases, linear)
+#:   still leave A at 1.67 % on four bodies of both signs (03-03-28-6 +, thick-22-17.2 -,
+#:   like-4 +, 03-03-12-4 -).
 #: like-10's and like-11's continuum states at 1 mm are unstable (a negative eigenvalue of
 #: the tangent stiffness: the knees and platform sway sideways and the top plate tilts about the punch);
 #: their sway starts between the beam model's with the input's rotation free and held
 #: (like-10: 0.83 < 0.92-0.93 < 1.10 mm; like-11: 0.33 < 0.45-0.46 < 0.88 mm).
 CUT_MISSES = {"like-8-delrin": "A -1.51 %", "thick-22-17.2-1.4-0.6": "A -1.71 %"}
-CUT_MISSES_1MM = {"like-4-delrin": "k +8.99 %, A -5.85 %", "like-9-delrin": "A +1.84 %",
-                  "thick-20-15-0.9-0.6-L1.6": "k -3.18 %, A +3.27 %",
-                  "thick-22-17.2-1.4-0.6": "k -3.16 %", "thick-28-20-1.0": "k -3.21 %",
-                  "thick-basis-22-1.1-L1.6": "k +4.11 %"}
+CUT_MISSES_1MM = {"like-4-delrin": "k +8.99 %, A -5.85 % (FE peak 71 MPa at 1 mm)",
+                  "like-9-delrin": "A +1.84 % (FE peak 39 MPa at 1 mm)",
+                  "thick-20-15-0.9-0.6-L1.6": "k -3.18 %, A +3.27 % (FE peak 109 MPa at 1 mm)",
+                  "thick-22-17.2-1.4-0.6": "k -3.16 % (FE peak 91 MPa at 1 mm)",
+                  "thick-28-20-1.0": "k -3.21 % (FE peak 100 MPa at 1 mm)",
+                  "thick-basis-22-1.1-L1.6": "k +4.11 % (FE peak 84 MPa at 1 mm)"}
 
 
 def _cases(names, misses):
@@ -233,3 +242,14 @@ def test_beam_model_matches_the_cut_part_in_the_linear_limit(name):
 def test_beam_model_matches_the_cut_part_at_1mm(name):
     """The beam model of the part as cut against the entry (see the module docstring)."""
     _beam_vs(name, nonlinear=True)
+
+
+def test_the_stresses_quoted_for_the_misses_at_1mm_are_the_tables():
+    """Each at-1-mm miss quotes the continuum's largest hinge peak there (MPa, to 1 MPa): it
+    says whether the miss is of a state the part holds (delrin: allowable 36 MPa, yield
+    60-70 MPa)."""
+    import re
+
+    for name, reason in CUT_MISSES_1MM.items():
+        quoted = float(re.search(r"FE peak (\d+) MPa at 1 mm", reason).group(1))
+        assert quoted == round(max(ENTRIES[name]["nonlinear_1mm"]["hinge_peak_stress_MPa"].values())), name
