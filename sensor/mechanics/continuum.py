@@ -428,16 +428,25 @@ def neck_points(design: Design) -> dict[int, np.ndarray]:
     return out
 
 
+_I2 = np.eye(2)[:, :, None, None]
+
+
+def _green_lagrange(grad_u):
+    """Deformation gradient F = I + grad u and Green-Lagrange strain E = (F^T F - I) / 2 at
+    the quadrature points (skfem's (2, 2, elements, points) layout)."""
+    F = _I2 + grad_u
+    return F, 0.5 * (np.einsum("kiab,kjab->ijab", F, F) - _I2)
+
+
 def _svk_forms(lam: float, mu: float):
     """The total-Lagrangian St Venant-Kirchhoff forms: (tangent stiffness, internal force),
     per unit sheet thickness, at the displacement ``u`` passed to :func:`skfem.asm`."""
     from skfem import BilinearForm, LinearForm
 
-    I = np.eye(2)[:, :, None, None]
+    I = _I2
 
     def kinematics(w):
-        F = I + w["u"].grad
-        E = 0.5 * (np.einsum("kiab,kjab->ijab", F, F) - I)
+        F, E = _green_lagrange(w["u"].grad)
         S = lam * (E[0, 0] + E[1, 1]) * I + 2 * mu * E
         return F, S
 
@@ -623,12 +632,9 @@ def _svk_energy(pb: _Problem, u: np.ndarray) -> float:
     """Strain energy (mJ) of the St Venant-Kirchhoff law: integral of lam/2 tr(E)^2 + mu E:E."""
     from skfem import Functional, asm
 
-    I = np.eye(2)[:, :, None, None]
-
     @Functional
     def density(w):
-        F = I + w["u"].grad
-        E = 0.5 * (np.einsum("kiab,kjab->ijab", F, F) - I)
+        _, E = _green_lagrange(w["u"].grad)
         return 0.5 * pb.lam * (E[0, 0] + E[1, 1]) ** 2 + pb.mu * np.einsum("ijab,ijab->ab", E, E)
 
     return float(asm(density, pb.basis, u=pb.basis.interpolate(u))) * pb.depth
