@@ -722,8 +722,9 @@ class Verification:
     peak sits, see :class:`ContinuumResult`); both also ``peak_stress_MPa``,
     ``peak_stress_hinge`` and ``stress_utilisation`` (the largest peak against the
     material's allowable stress; FE: None at kerf 0, where the peak is singular);
-    ``errors_pct`` the beam's errors relative to the FE. When the beam model's path stops being stable before the target (nonlinear),
-    ``beam`` is ``{"unstable": why}`` and ``errors_pct`` is empty: compare ``fe.stable``.
+    ``errors_pct`` the beam's errors relative to the FE. When the beam model's path stops
+    being stable before the target (nonlinear), ``beam`` is ``{"unstable": why}`` and
+    ``errors_pct`` is empty: compare ``fe.stable``.
     """
 
     design: Design
