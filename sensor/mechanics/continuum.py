@@ -237,17 +237,30 @@ def mesh_surface(size) -> tuple[np.ndarray, np.ndarray]:
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.setSizeCallback(lambda dim, tag, x, y, z, lc: size(x, y))
     gmsh.model.mesh.generate(2)
+    return mesh_elements(2)
+
+
+#: gmsh's element type of the linear simplex of each dimension: 3-node triangle, 4-node tetrahedron
+_GMSH_SIMPLEX = {2: 2, 3: 4}
+
+
+def mesh_elements(dim: int) -> tuple[np.ndarray, np.ndarray]:
+    """The open gmsh model's linear simplices of dimension ``dim`` (triangles or tetrahedra,
+    as gmsh orients them): points (N, dim) and cells (M, dim + 1) indexing them, nodes no
+    cell uses dropped."""
+    import gmsh
+
     tags, xyz, _ = gmsh.model.mesh.getNodes()
-    etypes, _, enodes = gmsh.model.mesh.getElements(2)
-    tri = np.asarray(enodes[list(etypes).index(2)], dtype=np.int64).reshape(-1, 3)
+    etypes, _, enodes = gmsh.model.mesh.getElements(dim)
+    cells = np.asarray(enodes[list(etypes).index(_GMSH_SIMPLEX[dim])], dtype=np.int64).reshape(-1, dim + 1)
     index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     index[tags.astype(np.int64)] = np.arange(len(tags))
-    points = xyz.reshape(-1, 3)[:, :2]
-    tri = index[tri]
-    used = np.unique(tri)
+    points = xyz.reshape(-1, 3)[:, :dim]
+    cells = index[cells]
+    used = np.unique(cells)
     remap = np.zeros(len(points), dtype=np.int64)
     remap[used] = np.arange(len(used))
-    return points[used], remap[tri]
+    return points[used], remap[cells]
 
 
 def _unit_mid(s, e, c, bulge):

@@ -14,7 +14,6 @@ import argparse
 import json
 import time
 
-import gmsh
 import numpy as np
 import scipy.sparse.linalg as spla
 from skfem import (
@@ -28,43 +27,31 @@ from skfem import (
 )
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
+from sensor.mechanics.continuum import gmsh_session, mesh_elements
+
 E, NU, T, L, DEPTH, BLOCK = 2300.0, 0.35, 0.5, 2.82, 5.1, 3.0
 
 
 def mesh(dim: int, size: float):
     """Block - neck - block along x (neck from x = 0 to L, |y| < T / 2), blocks BLOCK wide;
     3D: extruded to DEPTH / 2 (z = 0 is the symmetry plane)."""
-    gmsh.initialize(["-noenv"], readConfigFiles=False)
-    gmsh.option.setNumber("General.Terminal", 0)
-    occ = gmsh.model.occ
-    if dim == 2:
-        parts = [occ.addRectangle(-BLOCK, -BLOCK / 2, 0, BLOCK, BLOCK), occ.addRectangle(-0.1, -T / 2, 0, L + 0.2, T),
-                 occ.addRectangle(L, -BLOCK / 2, 0, BLOCK, BLOCK)]
-    else:
-        h = DEPTH / 2
-        parts = [occ.addBox(-BLOCK, -BLOCK / 2, 0, BLOCK, BLOCK, h), occ.addBox(-0.1, -T / 2, 0, L + 0.2, T, h),
-                 occ.addBox(L, -BLOCK / 2, 0, BLOCK, BLOCK, h)]
-    occ.fuse([(dim, parts[0])], [(dim, p) for p in parts[1:]])
-    occ.synchronize()
-    gmsh.model.mesh.setSizeCallback(
-        lambda d, tag, x, y, z, lc: size if (-T < x < L + T and abs(y) < 1.5 * T) else 4 * size)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-    gmsh.model.mesh.generate(dim)
-    tags, xyz, _ = gmsh.model.mesh.getNodes()
-    _, _, en = gmsh.model.mesh.getElements(dim)
-    gmsh.finalize()
-    k = 3 if dim == 2 else 4
-    cells = np.asarray(en[0], dtype=np.int64).reshape(-1, k)
-    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-    index[tags.astype(np.int64)] = np.arange(len(tags))
-    pts = xyz.reshape(-1, 3)[:, :dim]
-    cells = index[cells]
-    used = np.unique(cells)
-    remap = np.zeros(len(pts), dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    pts = pts[used]
-    cells = remap[cells]
+    with gmsh_session("plane-bound") as gmsh:
+        occ = gmsh.model.occ
+        if dim == 2:
+            parts = [occ.addRectangle(-BLOCK, -BLOCK / 2, 0, BLOCK, BLOCK), occ.addRectangle(-0.1, -T / 2, 0, L + 0.2, T),
+                     occ.addRectangle(L, -BLOCK / 2, 0, BLOCK, BLOCK)]
+        else:
+            h = DEPTH / 2
+            parts = [occ.addBox(-BLOCK, -BLOCK / 2, 0, BLOCK, BLOCK, h), occ.addBox(-0.1, -T / 2, 0, L + 0.2, T, h),
+                     occ.addBox(L, -BLOCK / 2, 0, BLOCK, BLOCK, h)]
+        occ.fuse([(dim, parts[0])], [(dim, p) for p in parts[1:]])
+        occ.synchronize()
+        gmsh.model.mesh.setSizeCallback(
+            lambda d, tag, x, y, z, lc: size if (-T < x < L + T and abs(y) < 1.5 * T) else 4 * size)
+        gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+        gmsh.model.mesh.generate(dim)
+        pts, cells = mesh_elements(dim)
     if dim == 3:  # positive orientation for scikit-fem
         a = pts[cells]
         vol = np.einsum("ij,ij->i", np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0]), a[:, 3] - a[:, 0])
