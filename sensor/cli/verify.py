@@ -95,6 +95,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"    hinge {h:>2}: {fe:7.2f} / {beam[0]}   peak: "
               f"{out['fe']['hinge_peak_stress_MPa'][h]:6.1f} / {beam[1]}")
     _print_stress_verdict(out, design, args.target_output)
+    if not unstable:
+        fe, beam, err = out["fe"], out["beam"], out["errors_pct"]
+        print("  left knee per mm of input (where an error in A starts): outward "
+              f"{fe['knee_outward_per_input']:.4f} / {beam['knee_outward_per_input']:.4f} mm "
+              f"({err['knee_outward_per_input']:+.2f} %), turn {1e3 * fe['knee_rotation_per_input_rad_per_mm']:+.2f}"
+              f" / {1e3 * beam['knee_rotation_per_input_rad_per_mm']:+.2f} mrad "
+              f"({err['knee_rotation_per_input_rad_per_mm']:+.2f} %) (FE / beam)")
     if out["stability"] and not out["stability"]["stable"]:
         n = out["stability"]["negative_modes"]
         print(f"  the continuum state at {args.target_output:g} mm is unstable ({n} negative mode{'s' * (n > 1)} "

@@ -715,6 +715,57 @@ def convergence_study(design: Design, mesh: str | float = "default", **options):
 
 # --- the beam model beside the continuum -------------------------------------------------
 
+#: The knee's motion compared (:func:`knee_motion_fe`): where an error in A comes from, the
+#: side chains that move the knee or the middle branch that turns its motion into output.
+KNEE_MOTION = ("knee_outward_per_input", "knee_rotation_per_input_rad_per_mm")
+#: How far inside the knee block's edges (mm) the FE's knee motion is read: the hinge roots
+#: deform the block's rim, its core moves as a rigid body (as the beam model's knee does).
+KNEE_MARGIN_MM = 0.5
+
+
+def _knee(design: Design) -> tuple[np.ndarray, np.ndarray]:
+    """The left knee block: its centre and its (lower-left, upper-right) corners, mm."""
+    lay = make_layout(design)
+    poly = next(p.polygon for p in make_parts(lay) if p.name == "left knee")
+    lo, hi = poly.min(axis=0), poly.max(axis=0)
+    return (lo + hi) / 2, np.array([lo, hi])
+
+
+def knee_motion_fe(design: Design, fe: ContinuumResult) -> dict:
+    """The left knee's motion per mm of input travel in the FE: ``knee_outward_per_input``
+    (its centre's travel away from the middle, mm/mm) and ``knee_rotation_per_input_rad_per_mm``
+    (counter-clockwise), the rigid motion fitted by least squares to the nodes at least
+    :data:`KNEE_MARGIN_MM` inside the block, and ``knee_fit_residual`` (RMS misfit of that
+    rigid motion over its size: how rigid the core is)."""
+    centre, (lo, hi) = _knee(design)
+    inside = np.all((fe.points > lo + KNEE_MARGIN_MM) & (fe.points < hi - KNEE_MARGIN_MM), axis=1)
+    if inside.sum() < 3:
+        raise SolverError(f"continuum: {int(inside.sum())} mesh nodes inside the knee block's core: "
+                          "too few to read its motion")
+    r = fe.points[inside] - centre
+    A = np.zeros((2 * len(r), 3))
+    A[0::2, 0] = A[1::2, 1] = 1.0
+    A[0::2, 2], A[1::2, 2] = -r[:, 1], r[:, 0]
+    b = fe.displacement_mm[inside].ravel()
+    x = np.linalg.lstsq(A, b, rcond=None)[0]
+    ux, uy, turn = x
+    misfit = np.sqrt(np.mean((A @ x - b) ** 2)) / max(math.hypot(ux, uy), 1e-30)
+    return {"knee_outward_per_input": float(-ux / fe.input_travel_mm),
+            "knee_rotation_per_input_rad_per_mm": float(turn / fe.input_travel_mm),
+            "knee_fit_residual": float(misfit)}
+
+
+def knee_motion_beam(design: Design, model, result) -> dict:
+    """The left knee's motion per mm of input travel in the beam model (a rigid body there):
+    the keys of :func:`knee_motion_fe` but the residual."""
+    centre, _ = _knee(design)
+    node = model.member_nodes[model.member_name.index("left knee"), 0]
+    u = result.deformed_nodes[node] - model.nodes[node]
+    turn = result.node_rotation_rad[node]
+    ux = u[0] - turn * (centre[1] - model.nodes[node, 1])
+    return {"knee_outward_per_input": float(-ux / result.input_travel_mm),
+            "knee_rotation_per_input_rad_per_mm": float(turn / result.input_travel_mm)}
+
 #: Output travel (fraction of the target) of the beam model's linear-limit solve.
 LINEAR_LIMIT_FRACTION = 1e-3
 
@@ -734,8 +785,9 @@ class Verification:
     singular at the sharp corners of kerf 0), FE also ``hinge_peak_station_mm`` (where the
     peak sits, see :class:`ContinuumResult`); both also ``peak_stress_MPa``,
     ``peak_stress_hinge`` and ``stress_utilisation`` (the largest peak against the
-    material's allowable stress; FE: None at kerf 0, where the peak is singular);
-    ``errors_pct`` the beam's errors relative to the FE. When the beam model's path stops
+    material's allowable stress; FE: None at kerf 0, where the peak is singular), and the
+    left knee's motion per mm of input (:data:`KNEE_MOTION`; FE: on the finest mesh, with
+    its ``knee_fit_residual``); ``errors_pct`` the beam's errors relative to the FE. When the beam model's path stops
     being stable before the target (nonlinear), ``beam`` is ``{"unstable": why}`` and
     ``errors_pct`` is empty: compare ``fe.stable``.
     """
@@ -773,7 +825,8 @@ def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict
     return {"amplification": r.amplification, "k_out_N_per_mm": r.k_out_N_per_mm,
             "strain_energy_mJ": r.strain_energy_mJ * scale**2,
             "hinge_stress_MPa": {h: v.neck_MPa * scale for h, v in s.items()},
-            "hinge_peak_stress_MPa": peak, **_utilisation(design, peak)}
+            "hinge_peak_stress_MPa": peak, **_utilisation(design, peak),
+            **knee_motion_beam(design, model, r)}
 
 
 def _utilisation(design: Design, peak_MPa: dict | None) -> dict:
@@ -806,10 +859,11 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     fe_summary["hinge_peak_station_mm"] = dict(fe.hinge_peak_station_mm)
     # the fillets' peak converges; at the drawing's sharp corners it is singular: no verdict
     fe_summary.update(_utilisation(design, fe.hinge_stress_MPa if design.kerf_mm > 0 else None))
+    fe_summary.update(knee_motion_fe(design, fe))
     beam = _beam_side(design, target_output_mm, nonlinear)
     if "unstable" in beam:
         return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, {})
-    errors = {q: 100 * (beam[q] / fe_summary[q] - 1) for q in CONVERGED}
+    errors = {q: 100 * (beam[q] / fe_summary[q] - 1) for q in CONVERGED + KNEE_MOTION}
     errors["hinge_stress_MPa"] = {h: 100 * (beam["hinge_stress_MPa"][h] / v - 1)
                                   for h, v in fe_summary["hinge_stress_MPa"].items()}
     return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, errors)
