@@ -4,6 +4,7 @@ every re-entrant corner, DESIGN section 16) beside its beam model."""
 from __future__ import annotations
 
 import argparse
+import math
 
 from sensor.cli.design_args import add_design_arguments, check_flags, design_from_args, travel_rule
 from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_json, staged
@@ -46,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from geometry.atomic import save_figure
     from geometry.checks import assert_feasible
     from geometry.params import FIELD_RULES
+    from geometry.topology import root_radius_mm
     from sensor.errors import UsageError
     from sensor.mechanics.continuum import verification_to_dict, verify_design
     from sensor.mechanics.plots import stress_field_figure
@@ -85,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {label:<24}{out['fe'][key]:>10.4f}{beam}{out['convergence'][key]['error_pct']:>17.3f}")
     if unstable:
         print(f"  beam model: {unstable}")
-    sharp = "" if design.kerf_mm > 0 else " (sharp corners: singular, grows with the mesh)"
+    sharp = "" if root_radius_mm(design) > 0 else " (sharp corners: singular, grows with the mesh)"
     print("  hinge stress, MPa: one thickness inside the neck (FE / beam / error %); peak von Mises "
           f"at the root (FE{sharp} / beam)")
     for h, fe in out["fe"]["hinge_stress_MPa"].items():
@@ -113,16 +115,17 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_stress_verdict(out: dict, design, travel_mm: float) -> None:
     """The largest hinge peak against the material's allowable stress, and a warning when the
-    part passes it before the travel compared (an elastic state the part as cut does not
-    hold: delrin creeps above its allowable stress and yields around 60-70 MPa)."""
+    part passes it before the travel compared (the material creeps past its allowable
+    stress, and yields further on: an elastic model no longer describes the part there)."""
     side = "fe" if out["fe"]["stress_utilisation"] is not None else "beam"
-    if out[side].get("stress_utilisation") is None:  # the beam went unstable at kerf 0
-        return
+    if out[side].get("stress_utilisation") is None or not math.isfinite(design.material.allowable_stress_MPa):
+        return  # no peak to judge (the beam unstable, the FE singular) or no allowable stress
     peak, hinge, util = (out[side][k] for k in ("peak_stress_MPa", "peak_stress_hinge", "stress_utilisation"))
     allow = design.material.allowable_stress_MPa
-    where = "FE" if side == "fe" else "beam; the drawing's sharp corners make the FE's singular"
+    where = "FE" if side == "fe" else "beam; sharp corners make the FE's singular"
     print(f"  largest peak at {travel_mm:g} mm ({where}): "
           f"{peak:.1f} MPa at hinge {hinge}, {util:.2f} x the allowable {allow:g} MPa of {design.material.name}")
     if util > 1.0:
         print(f"  warning: the part passes its allowable stress before {travel_mm:g} mm "
-              f"({peak:.1f} > {allow:g} MPa): the values above are of an elastic state the part as cut does not hold")
+              f"({peak:.1f} > {allow:g} MPa): past it the material creeps, then yields; the elastic values above "
+              "overstate what the part as cut holds")

@@ -738,7 +738,8 @@ def knee_motion_fe(design: Design, fe: ContinuumResult) -> dict:
     :data:`KNEE_MARGIN_MM` inside the block, and ``knee_fit_residual`` (RMS misfit of that
     rigid motion over its size: how rigid the core is)."""
     centre, (lo, hi) = _knee(design)
-    inside = np.all((fe.points > lo + KNEE_MARGIN_MM) & (fe.points < hi - KNEE_MARGIN_MM), axis=1)
+    margin = min(KNEE_MARGIN_MM, 0.25 * float(np.min(hi - lo)))   # a small knee keeps half its size
+    inside = np.all((fe.points > lo + margin) & (fe.points < hi - margin), axis=1)
     if inside.sum() < 3:
         raise SolverError(f"continuum: {int(inside.sum())} mesh nodes inside the knee block's core: "
                           "too few to read its motion")
@@ -832,7 +833,8 @@ def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict
 def _utilisation(design: Design, peak_MPa: dict | None) -> dict:
     """``peak_stress_MPa`` (the largest hinge peak, MPa), the hinge it is at
     (``peak_stress_hinge``) and ``stress_utilisation`` (peak / the material's allowable
-    stress, DESIGN section 14), as ``dacm solve --json`` names them; None without peaks."""
+    stress, DESIGN section 14; the first and last as ``dacm solve --json`` names them); None
+    without peaks."""
     if not peak_MPa:
         return {"peak_stress_MPa": None, "peak_stress_hinge": None, "stress_utilisation": None}
     hinge = max(peak_MPa, key=peak_MPa.get)
@@ -858,7 +860,9 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     fe_summary["hinge_peak_stress_MPa"] = dict(fe.hinge_stress_MPa)
     fe_summary["hinge_peak_station_mm"] = dict(fe.hinge_peak_station_mm)
     # the fillets' peak converges; at the drawing's sharp corners it is singular: no verdict
-    fe_summary.update(_utilisation(design, fe.hinge_stress_MPa if design.kerf_mm > 0 else None))
+    from geometry.topology import root_radius_mm
+
+    fe_summary.update(_utilisation(design, fe.hinge_stress_MPa if root_radius_mm(design) > 0 else None))
     fe_summary.update(knee_motion_fe(design, fe))
     beam = _beam_side(design, target_output_mm, nonlinear)
     if "unstable" in beam:
