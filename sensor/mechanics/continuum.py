@@ -456,7 +456,7 @@ def _svk_forms(lam: float, mu: float):
     per unit sheet thickness, at the displacement ``u`` passed to :func:`skfem.asm`."""
     from skfem import BilinearForm, LinearForm
 
-    I = _I2
+    I = _I2  # noqa: E741 (the identity, as in the formulas)
 
     def kinematics(w):
         F, E = _green_lagrange(w["u"].grad)
@@ -767,6 +767,7 @@ def knee_motion_beam(design: Design, model, result) -> dict:
     return {"knee_outward_per_input": float(-ux / result.input_travel_mm),
             "knee_rotation_per_input_rad_per_mm": float(turn / result.input_travel_mm)}
 
+
 #: Output travel (fraction of the target) of the beam model's linear-limit solve.
 LINEAR_LIMIT_FRACTION = 1e-3
 
@@ -786,11 +787,11 @@ class Verification:
     singular at the sharp corners of kerf 0), FE also ``hinge_peak_station_mm`` (where the
     peak sits, see :class:`ContinuumResult`); both also ``peak_stress_MPa``,
     ``peak_stress_hinge`` and ``stress_utilisation`` (the largest peak against the
-    material's allowable stress; FE: None at kerf 0, where the peak is singular), and the
-    left knee's motion per mm of input (:data:`KNEE_MOTION`; FE: on the finest mesh, with
-    its ``knee_fit_residual``); ``errors_pct`` the beam's errors relative to the FE. When the beam model's path stops
-    being stable before the target (nonlinear), ``beam`` is ``{"unstable": why}`` and
-    ``errors_pct`` is empty: compare ``fe.stable``.
+    material's allowable stress; FE: None on sharp roots, where the peak is singular), and
+    the left knee's motion per mm of input (:data:`KNEE_MOTION`; FE: on the finest mesh,
+    with its ``knee_fit_residual``); ``errors_pct`` the beam's errors relative to the FE.
+    When the beam model's path stops being stable before the target (nonlinear), ``beam``
+    is ``{"unstable": why}`` and ``errors_pct`` is empty: compare ``fe.stable``.
     """
 
     design: Design
@@ -859,7 +860,7 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     fe_summary["hinge_stress_MPa"] = dict(fe.hinge_neck_stress_MPa)
     fe_summary["hinge_peak_stress_MPa"] = dict(fe.hinge_stress_MPa)
     fe_summary["hinge_peak_station_mm"] = dict(fe.hinge_peak_station_mm)
-    # the fillets' peak converges; at the drawing's sharp corners it is singular: no verdict
+    # the fillets' peak converges; at sharp roots it is singular: no verdict
     from geometry.topology import root_radius_mm
 
     fe_summary.update(_utilisation(design, fe.hinge_stress_MPa if root_radius_mm(design) > 0 else None))
