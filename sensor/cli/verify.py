@@ -99,11 +99,13 @@ def run(args: argparse.Namespace) -> int:
     _print_stress_verdict(out, design, args.target_output)
     if not unstable:
         fe, beam, err = out["fe"], out["beam"], out["errors_pct"]
-        print("  left knee per mm of input (where an error in A starts): outward "
+        why = "" if design.is_basis else " (where an error in A starts)"  # the middle branch amplifies it
+        turn, mesh = "knee_rotation_per_input_rad_per_mm", out["convergence"]
+        print(f"  left knee per mm of input{why}, FE / beam: outward "
               f"{fe['knee_outward_per_input']:.4f} / {beam['knee_outward_per_input']:.4f} mm "
-              f"({err['knee_outward_per_input']:+.2f} %), turn {1e3 * fe['knee_rotation_per_input_rad_per_mm']:+.2f}"
-              f" / {1e3 * beam['knee_rotation_per_input_rad_per_mm']:+.2f} mrad "
-              f"({err['knee_rotation_per_input_rad_per_mm']:+.2f} %) (FE / beam)")
+              f"({err['knee_outward_per_input']:+.2f} %), turn {1e3 * fe[turn]:+.2f} / {1e3 * beam[turn]:+.2f} mrad "
+              f"({err[turn]:+.2f} %); FE mesh error {mesh['knee_outward_per_input']['error_pct']:.2f} "
+              f"and {mesh[turn]['error_pct']:.2f} %")
     if out["stability"] and not out["stability"]["stable"]:
         n = out["stability"]["negative_modes"]
         print(f"  the continuum state at {args.target_output:g} mm is unstable ({n} negative mode{'s' * (n > 1)} "

@@ -788,8 +788,9 @@ class Verification:
     peak sits, see :class:`ContinuumResult`); both also ``peak_stress_MPa``,
     ``peak_stress_hinge`` and ``stress_utilisation`` (the largest peak against the
     material's allowable stress; FE: None on sharp roots, where the peak is singular), and
-    the left knee's motion per mm of input (:data:`KNEE_MOTION`; FE: on the finest mesh,
-    with its ``knee_fit_residual``); ``errors_pct`` the beam's errors relative to the FE.
+    the left knee's motion per mm of input (:data:`KNEE_MOTION`; FE: extrapolated from the
+    three meshes like A, its study in ``convergence``, and the finest mesh's
+    ``knee_fit_residual``); ``errors_pct`` the beam's errors relative to the FE.
     When the beam model's path stops being stable before the target (nonlinear), ``beam``
     is ``{"unstable": why}`` and ``errors_pct`` is empty: compare ``fe.stable``.
     """
@@ -864,7 +865,10 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     from geometry.topology import root_radius_mm
 
     fe_summary.update(_utilisation(design, fe.hinge_stress_MPa if root_radius_mm(design) > 0 else None))
-    fe_summary.update(knee_motion_fe(design, fe))
+    knees = [knee_motion_fe(design, r) for r in runs]
+    conv.update({q: richardson([k[q] for k in knees]) for q in KNEE_MOTION})
+    fe_summary.update({q: conv[q].extrapolated for q in KNEE_MOTION},
+                      knee_fit_residual=knees[-1]["knee_fit_residual"])
     beam = _beam_side(design, target_output_mm, nonlinear)
     if "unstable" in beam:
         return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, {})
