@@ -100,12 +100,12 @@ def run(args: argparse.Namespace) -> int:
     if not unstable:
         fe, beam, err = out["fe"], out["beam"], out["errors_pct"]
         why = "" if design.is_basis else " (where an error in A starts)"  # the middle branch amplifies it
-        turn, mesh = "knee_rotation_per_input_rad_per_mm", out["convergence"]
-        print(f"  left knee per mm of input{why}, FE / beam: outward "
-              f"{fe['knee_outward_per_input']:.4f} / {beam['knee_outward_per_input']:.4f} mm "
-              f"({err['knee_outward_per_input']:+.2f} %), turn {1e3 * fe[turn]:+.2f} / {1e3 * beam[turn]:+.2f} mrad "
-              f"({err[turn]:+.2f} %); FE mesh error {mesh['knee_outward_per_input']['error_pct']:.2f} "
-              f"and {mesh[turn]['error_pct']:.2f} %")
+        move, turn = "knee_outward_per_input", "knee_rotation_per_input_rad_per_mm"
+        conv = out["convergence"]
+        print(f"  left knee per mm of input{why}, FE / beam: outward {fe[move]:.4f} / {beam[move]:.4f} mm "
+              f"({_pct(err[move], '+.2f')}), turn {1e3 * fe[turn]:+.2f} / {1e3 * beam[turn]:+.2f} mrad "
+              f"({_pct(err[turn], '+.2f')}); FE mesh error {_pct(conv[move]['error_pct'], '.3f')} "
+              f"and {_pct(conv[turn]['error_pct'], '.3f')}")
     if out["stability"] and not out["stability"]["stable"]:
         n = out["stability"]["negative_modes"]
         print(f"  the continuum state at {args.target_output:g} mm is unstable ({n} negative mode{'s' * (n > 1)} "
@@ -113,6 +113,11 @@ def run(args: argparse.Namespace) -> int:
     if paths:
         print(f"wrote {args.out / paths[0].name}")
     return 0
+
+
+def _pct(value: float | None, spec: str) -> str:
+    """A percentage, or n/a where it is undefined (null in the JSON: a zero reference)."""
+    return "n/a" if value is None else f"{value:{spec}} %"
 
 
 def _print_stress_verdict(out: dict, design, travel_mm: float) -> None:

@@ -686,8 +686,14 @@ def richardson(values, ratio: float = REFINEMENT_RATIO) -> Convergence:
         p = math.log(d1 / d2) / math.log(ratio)
     if ORDER_RANGE[0] <= p <= ORDER_RANGE[1]:
         ext = f3 + d2 / (ratio**p - 1)
-        return Convergence((f1, f2, f3), p, ext, 100 * abs(f3 - ext) / abs(ext))
-    return Convergence((f1, f2, f3), float("nan"), f3, 100 * abs(d2) / (ratio - 1) / abs(f3))
+        return Convergence((f1, f2, f3), p, ext, abs(relative_error_pct(f3, ext)))
+    return Convergence((f1, f2, f3), float("nan"), f3, abs(relative_error_pct(f3 + d2 / (ratio - 1), f3)))
+
+
+def relative_error_pct(value: float, reference: float) -> float:
+    """100 (value / reference - 1); NaN for a zero reference (a quantity that passes through
+    zero, such as a knee's rotation, has no relative error there)."""
+    return 100 * (value / reference - 1) if reference else float("nan")
 
 
 #: Observed orders accepted for extrapolation: quadratic elements converge in energy at
@@ -777,8 +783,9 @@ class Verification:
     """The continuum FE of a design beside its beam model (:func:`verify_design`).
 
     ``design`` carries the kerf solved (``design.kerf_mm``; 0: the drawing). ``fe`` is the
-    finest of the three meshes; ``convergence`` holds the Richardson study of A, k_out and
-    SE, and ``convergence["hinge_peak_stress_MPa"]`` one per hinge of the FE peak;
+    finest of the three meshes; ``convergence`` holds the Richardson study of A, k_out, SE
+    and the knee's motion (:data:`KNEE_MOTION`), and ``convergence["hinge_peak_stress_MPa"]``
+    one per hinge of the FE peak;
     ``beam`` and ``fe_summary`` are dicts with ``amplification``, ``k_out_N_per_mm``,
     ``strain_energy_mJ`` (FE: the extrapolated values) and ``hinge_stress_MPa`` (the nominal
     stress one thickness inside each neck, where both models are mesh- and root-independent)
@@ -872,8 +879,8 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     beam = _beam_side(design, target_output_mm, nonlinear)
     if "unstable" in beam:
         return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, {})
-    errors = {q: 100 * (beam[q] / fe_summary[q] - 1) for q in CONVERGED + KNEE_MOTION}
-    errors["hinge_stress_MPa"] = {h: 100 * (beam["hinge_stress_MPa"][h] / v - 1)
+    errors = {q: relative_error_pct(beam[q], fe_summary[q]) for q in CONVERGED + KNEE_MOTION}
+    errors["hinge_stress_MPa"] = {h: relative_error_pct(beam["hinge_stress_MPa"][h], v)
                                   for h, v in fe_summary["hinge_stress_MPa"].items()}
     return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, errors)
 
@@ -882,16 +889,16 @@ def verification_to_dict(v: Verification) -> dict:
     """The JSON form of a :class:`Verification` (keys ``fe``, ``beam``, ``errors_pct``,
     ``convergence``, ``mesh``, ``options``, ``stability``: null when linear, else whether the
     finest mesh's state at the target is stable)."""
-    def hinges(d):
-        return {str(h): x for h, x in d.items()}
+    def number(x):  # JSON has no NaN: an undefined value is null
+        return None if isinstance(x, float) and math.isnan(x) else x
 
     def side(d):
-        return {k: hinges(x) if isinstance(x, dict) else x for k, x in d.items()}
+        return {k: {str(h): number(y) for h, y in x.items()} if isinstance(x, dict) else number(x)
+                for k, x in d.items()}
 
     def study(c):
         return {"values": list(c.values), "elements_across": [r.elements_across for r in v.runs],
-                "order": None if math.isnan(c.order) else c.order,
-                "extrapolated": c.extrapolated, "error_pct": c.error_pct}
+                "order": number(c.order), "extrapolated": c.extrapolated, "error_pct": number(c.error_pct)}
 
     fe = v.fe
     return {

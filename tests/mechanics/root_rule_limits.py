@@ -3,9 +3,10 @@
 The three fitted constants of :mod:`geometry.topology` (``ROOT_DEPTH_PER_THICKNESS``,
 ``ROOT_DEPTH_PER_LEAN``, ``FILLET_SPREAD_SLOPE``) are searched (Nelder-Mead from three
 starts, each constant not negative) for the smallest worst miss over every continuum-table
-entry and drawn case in the linear limit: max over the bodies of max(|k_out error| / 3 %,
-|A error| / 1.5 %). Below 1 the targets can be met; the stored constants are least squares
-on k_out, not this minimax (tests/mechanics/test_root_rule.py).
+entry (held-out ones included: a bound on the rule's form, not a fit) and drawn case in the
+linear limit: max over the bodies of max(|k_out error| / 3 %, |A error| / 1.5 %). Below 1
+the targets could be met; the stored constants are least squares on k_out over the entries
+not held out, not this minimax (tests/mechanics/test_root_rule.py).
 
     python -m tests.mechanics.root_rule_limits      # about a minute; one JSON object
 
@@ -18,13 +19,15 @@ import numpy as np
 from scipy.optimize import minimize
 
 import geometry.topology as topology
+from geometry.errors import GeometryError
 from geometry.params import design_from_dict
+from sensor.errors import SensorError
 from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
 from sensor.mechanics.solver import solve
-from tests.mechanics.test_continuum_table import DESIGNS, ENTRIES, TABLE
+from tests.mechanics.test_continuum_table import A_TOL_PCT, DESIGNS, ENTRIES, K_TOL_PCT, TABLE
 from tests.mechanics.test_root_rule import CONSTANTS
 
-TARGETS_PCT = {"k_out_N_per_mm": 3.0, "amplification": 1.5}
+TARGETS_PCT = {"k_out_N_per_mm": K_TOL_PCT, "amplification": A_TOL_PCT}
 BODIES = ([(n, design_from_dict(row["design"]), row["linear"]) for n, row in sorted(ENTRIES.items())]
           + [(f"drawn {n}", DESIGNS[n], row["linear"]) for n, row in sorted(TABLE.items())])
 
@@ -51,7 +54,11 @@ def misses(values) -> list[tuple[float, str, float, float]]:
 
 
 def worst(values) -> float:
-    return max(m[0] for m in misses(values))
+    """The largest error over its target of any body (inf where the beam model fails)."""
+    try:
+        return max(m[0] for m in misses(values))
+    except (SensorError, GeometryError):
+        return float("inf")
 
 
 def main() -> None:
@@ -63,7 +70,7 @@ def main() -> None:
     print(json.dumps({
         "bodies": len(BODIES), "targets_pct": TARGETS_PCT,
         "stored": {"constants": dict(zip(CONSTANTS, stored.tolist())), "worst_over_target": worst(stored)},
-        "best": {"constants": dict(zip(CONSTANTS, np.round(best.x, 4).tolist())),
+        "best": {"constants": dict(zip(CONSTANTS, best.x.tolist())),
                  "worst_over_target": best.fun,
                  "worst_bodies": [{"name": n, "k_out_error_pct": round(k, 2), "amplification_error_pct": round(a, 2)}
                                   for _, n, k, a in sorted(misses(best.x), reverse=True)[:5]]},

@@ -17,6 +17,7 @@ from sensor.mechanics.continuum import (
     cut_profile_loops,
     mesh_profile,
     neck_points,
+    relative_error_pct,
     richardson,
     verify,
 )
@@ -118,6 +119,14 @@ def test_clamping_the_whole_base_plate_barely_moves_the_answer(sample_b):
 def test_bad_options_are_clear_errors(kwargs, fragment):
     with pytest.raises(SensorInputError, match=fragment.replace("(", r"\(")):
         verify(preset("basis"), **kwargs)
+
+
+def test_a_quantity_at_zero_has_no_relative_error():
+    """A knee that does not turn: its rotation's relative mesh error and the beam's relative
+    error are undefined (NaN; null in the JSON), not a division by zero."""
+    assert math.isnan(richardson([0.0, 0.0, 0.0]).error_pct)
+    assert math.isnan(relative_error_pct(1e-3, 0.0))
+    assert relative_error_pct(1.03, 1.0) == pytest.approx(3.0)
 
 
 def test_richardson_outside_the_asymptotic_range_keeps_the_finest_value():

@@ -120,6 +120,28 @@ def test_beam_model_matches_continuum_in_the_linear_limit(name):
     assert abs(a_err) < A_TOL_PCT, f"A {a_err:+.2f} %"
 
 
+@pytest.mark.parametrize("name", sorted(LINEAR_MISSES))
+def test_the_drawn_misses_vanish_as_the_hinges_thin(name):
+    """The two drawn cells the beam model misses in the linear limit, with every hinge at
+    0.12 mm instead of 0.3 mm (t / L 0.04): the continuum (one mesh of 4 elements across each
+    hinge; at 0.3 mm that mesh is within 0.2 % of the converged A and 0.6 % of k_out) against
+    the beam model. Their errors in A, -2.41 % and +1.60 % at 0.3 mm (the table), shrink with
+    the hinges (measured -0.13 % and +0.37 % at 0.12 mm), so they are thick-hinge effects,
+    not the kinematics of the layout: at 0.12 mm A within a third of the target and of the
+    table's error, k_out within a third of its target (measured +0.77 % and +0.35 %)."""
+    from sensor.mechanics.continuum import verify
+
+    design = DESIGNS[name].replace(hinge_thickness_mm=(0.12,) * 12)
+    fe_thin = verify(design, mesh=4.0)
+    _, r = beam_linear(name)
+    thick_a_err = abs(100 * (r.amplification / fe(name, "amplification") - 1))
+    r = solve(build_beam_model(design), target_output_mm=LINEAR_LIMIT_FRACTION)
+    a_err = 100 * (r.amplification / fe_thin.amplification - 1)
+    k_err = 100 * (r.k_out_N_per_mm / fe_thin.k_out_N_per_mm - 1)
+    assert abs(a_err) < min(A_TOL_PCT, thick_a_err) / 3, f"A {a_err:+.2f} % (0.3 mm: {thick_a_err:.2f} %)"
+    assert abs(k_err) < K_TOL_PCT / 3, f"k_out {k_err:+.2f} %"
+
+
 @pytest.mark.parametrize("name", _cases(NONLINEAR, NONLINEAR_MISSES))
 def test_beam_model_matches_continuum_at_1mm(name):
     """Nonlinear FE (total Lagrangian, default mesh: about 0.5 % softer than converged, so
