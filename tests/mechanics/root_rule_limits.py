@@ -22,7 +22,7 @@ import geometry.topology as topology
 from geometry.errors import GeometryError
 from geometry.params import design_from_dict
 from sensor.errors import SensorError
-from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
+from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION, relative_error_pct
 from sensor.mechanics.solver import solve
 from tests.mechanics.test_continuum_table import A_TOL_PCT, DESIGNS, ENTRIES, K_TOL_PCT, TABLE
 from tests.mechanics.test_root_rule import CONSTANTS
@@ -43,7 +43,7 @@ def misses(values) -> list[tuple[float, str, float, float]]:
         out = []
         for name, design, fe in BODIES:
             r = solve(topology.build_beam_model(design), target_output_mm=LINEAR_LIMIT_FRACTION)
-            err = {q: 100 * (getattr(r, q) / fe[q]["extrapolated"] - 1) for q in TARGETS_PCT}
+            err = {q: relative_error_pct(getattr(r, q), fe[q]["extrapolated"]) for q in TARGETS_PCT}
             out.append((max(abs(err[q]) / t for q, t in TARGETS_PCT.items()), name,
                         err["k_out_N_per_mm"], err["amplification"]))
         return out
