@@ -106,7 +106,7 @@ def pareto_front(ds: xr.Dataset, hinges: str, tolerance: float = SAME_RANGE) -> 
     among the admissible cells within ``tolerance`` of its range, by range."""
     df = _cells(ds, hinges).sort_values("range_N").reset_index(drop=True)
     r, h = df["range_N"].values, df["hysteresis"].values
-    lo = np.searchsorted(r, r / (1 + tolerance), side="left")
+    lo = np.searchsorted(r, r * (1 - tolerance), side="left")  # |r' / r - 1| <= tolerance, as answer_at
     hi = np.searchsorted(r, r * (1 + tolerance), side="right")
     keep = np.array([h[n] <= h[lo[n]:hi[n]].min() for n in range(len(df))], dtype=bool)
     return df[keep].drop(columns=["i", "j"]).reset_index(drop=True)
