@@ -13,7 +13,7 @@ JSON schema ``dacm-beam-model/1`` (units mm, MPa)::
      "members": [{"kind": "hinge"|"link"|"rigid", "start": int, "end": int,
                   "thickness_mm": float, "depth_mm": float, "hinge": int (0 if none),
                   "name": str,
-                  "profile": [[s, t], ...] (optional), "neck_mm": [s0, s1] (optional),
+                  "profile": [[s, t, e], ...] (optional), "neck_mm": [s0, s1] (optional),
                   "root_radius_mm": [r_a, r_b] (optional),
                   "fillet_neck_mm": [[a_left, a_right], [b_left, b_right]] (optional)}, ...],
      "supports": [{"node": int, "dofs": ["x", "y", "rz"]}, ...],
@@ -24,7 +24,9 @@ JSON schema ``dacm-beam-model/1`` (units mm, MPa)::
 (the sheet thickness); ``rigid`` members join nodes of one rigid body and have no
 compliance. A member of varying thickness (a hinge with its root fillets) gives
 ``profile``: its in-plane thickness t (mm) at stations s (mm from its start, increasing,
-from 0 to its length), linear between stations; ``thickness_mm`` is then the neck's, the
+from 0 to its length), linear between stations, and the offset e (mm) of the section's
+centroid to the left of the member's axis (where a leaning face's two fillets differ; a
+station [s, t] reads as e = 0); ``thickness_mm`` is then the neck's, the
 thinnest, ``neck_mm`` the stations where the neck of that thickness starts and ends, and
 ``root_radius_mm`` the fillet radius at each end (0: a sharp root), ``fillet_neck_mm`` the
 stations where each root fillet meets the neck, at the start and the end, on the left and
@@ -70,14 +72,14 @@ DOF_NAMES = ("x", "y", "rz")
 #: and t, not with the fillet's width), less in a body that is not much deeper than that
 #: (a 2 mm plate or knee block under a 1 mm hinge): ``ROOT_BODY_DEPTHS`` sets where that
 #: begins (:func:`root_depth_mm`).
-ROOT_DEPTH_PER_THICKNESS = 0.29
-ROOT_DEPTH_PER_LEAN = 1.02
+ROOT_DEPTH_PER_THICKNESS = 0.326
+ROOT_DEPTH_PER_LEAN = 0.911
 ROOT_BODY_DEPTHS = 0.56
 #: A root fillet widens the neck faster than the bending stress can spread into it (plane
 #: sections do not stay plane where the section grows steeply): each side's fillet counts
 #: up to ``FILLET_SPREAD_SLOPE`` x the distance from where it meets the neck (a load-spread
 #: angle of about 15 deg), the rest of the arc carries little.
-FILLET_SPREAD_SLOPE = 0.27
+FILLET_SPREAD_SLOPE = 0.256
 #: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
 #: points and taken linear between them: the flexibility integrals of a quarter circle
 #: sampled at 8 points are within 0.1 % of the exact arc's).
@@ -104,7 +106,7 @@ class BeamModel:
     nu: float
     material_name: str = "custom"
     labels: dict = field(default_factory=dict)  # optional named nodes, for reports
-    profile_mm: tuple = ()            # per member: None (uniform) or (k, 2) stations s, t
+    profile_mm: tuple = ()            # per member: None (uniform) or (k, 3) stations s, t, e
     neck_mm: np.ndarray | None = None  # (m, 2) stations where the neck starts and ends
     root_radius_mm: np.ndarray | None = None  # (m, 2) fillet radius at each end (0: sharp)
     fillet_neck_mm: np.ndarray | None = None  # (m, 2, 2) where each fillet meets the neck, [start, end] x [left, right]
@@ -207,10 +209,14 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
     :func:`root_depth_mm`; r = kerf / 2 for a water-jet, 0 for the drawing). The strip
     leaves the face, where the first fillet leaves it, t plus both fillets' heights wide;
     the member reaches :func:`root_depth_mm` further, into the body, at that width, where
-    the elastic root is taken as clamped.
+    the elastic root is taken as clamped, on the axis. Where a face leans, its two fillets
+    differ (the acute corner's reaches further along the neck), so the section's centroid
+    leaves the axis by e = (acute - obtuse fillet height) / 2 towards the acute corner: an
+    axial force bends the fillets (the member's axial-bending coupling,
+    sensor.mechanics.solver.profile_flexibility).
 
     Cached (a sweep's cells share their hinges); the stations are read-only.
-    Returns (stations (k, 2) of s and t, (s0, s1) where the uniform neck starts and ends,
+    Returns (stations (k, 3) of s, t and e, (s0, s1) where the uniform neck starts and ends,
     member length, how far behind the start face's axis crossing the member starts, and
     per end the stations where its acute-corner and obtuse-corner fillets meet the neck),
     all in mm from the member's start: ``k`` = 2 + 4 :data:`FILLET_STATIONS` for every
@@ -226,15 +232,17 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
                        + [face1 - (face1 - n) * arc for _, n, _ in end])
     s = np.sort(np.clip(s, face0, face1))
 
-    def width(x):  # t plus, on each side of the neck, the higher of its two fillets
-        return t_mm + sum(np.maximum(_fill_mm(x, a), _fill_mm(-x, (-f, -n, r)))
-                          for a, (f, n, r) in zip(start, end))
+    def sides(x):  # on each side of the neck, the higher of its two fillets
+        return [np.maximum(_fill_mm(x, a), _fill_mm(-x, (-f, -n, r))) for a, (f, n, r) in zip(start, end)]
 
-    t = width(s)
+    acute, obtuse = sides(s)
+    t = t_mm + acute + obtuse
+    e = (acute - obtuse) / 2  # the section's centroid, off the axis towards the acute corner
     da = root_depth_mm(t_mm, gamma_deg=ends[0][2], body_mm=ends[0][3])
     db = root_depth_mm(t_mm, gamma_deg=ends[1][2], body_mm=ends[1][3])
     st = np.column_stack([np.concatenate([[face0 - da], s, [face1 + db]]),
-                          np.concatenate([[t[0]], t, [t[-1]]])])
+                          np.concatenate([[t[0]], t, [t[-1]]]),
+                          np.concatenate([[0.0], e, [0.0]])])
     shift = da - face0  # the member starts this far behind the start face's axis crossing
     st[:, 0] += shift
     st.flags.writeable = False  # cached: a sweep's cells share their hinges' profiles
@@ -381,8 +389,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         # end body's normal pointing back along the member, on that side at the end)
         c = -math.copysign(1.0, ux) * uy if "middle" in name else math.copysign(1.0, uy) * ux
         # (the link ends are square: both fillets at the neck's end)
-        shape[len(members) + 1] = (p1, neck1, (r, r), (_left_right(fil1[0], c < 0), fil1[1]))
-        shape[len(members) + 3] = (p2, neck2, (r, r), (fil2[0], _left_right(fil2[1], c > 0)))
+        shape[len(members) + 1] = (_centroid_left(p1, c < 0), neck1, (r, r), (_left_right(fil1[0], c < 0), fil1[1]))
+        shape[len(members) + 3] = (_centroid_left(p2, c > 0), neck2, (r, r), (fil2[0], _left_right(fil2[1], c > 0)))
         members += [("rigid", ia, ra, t1, 0, f"hinge {h1} root"),
                     ("hinge", ra, j1, t1, h1, f"hinge {h1}"),
                     ("link", j1, j2, d.link_width_mm, 0, f"{name} link"),
@@ -420,6 +428,16 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         root_radius_mm=radius,
         fillet_neck_mm=fillet,
     )
+
+
+def _centroid_left(stations: np.ndarray, acute_left: bool) -> np.ndarray:
+    """A hinge profile's stations with the centroid's offset e signed to the member's left
+    (hinge_profile gives it towards the acute corner)."""
+    if acute_left:
+        return stations
+    out = stations * (1.0, 1.0, -1.0)
+    out.flags.writeable = False
+    return out
 
 
 def _left_right(acute_obtuse: tuple, acute_left: bool) -> tuple:
@@ -590,11 +608,12 @@ def _member_shape(m: dict, i: int, length: float, fail, number) -> tuple:
         fail(f"member {i}: a rigid member has no thickness profile")
     prof = m["profile"]
     if not (isinstance(prof, list) and 2 <= len(prof) <= MAX_PROFILE_STATIONS
-            and all(isinstance(p, list) and len(p) == 2 for p in prof)):
+            and all(isinstance(p, list) and len(p) in (2, 3) for p in prof)):
         fail(f"member {i} profile = {reprlib.repr(prof)}: must be a list of 2 to "
-             f"{MAX_PROFILE_STATIONS} [s, t] stations (mm)")
-    st = np.array([[number(v, f"member {i} profile {c}", _COORD if c == "s" else _SIZE)
-                    for v, c in zip(p, "st")] for p in prof])
+             f"{MAX_PROFILE_STATIONS} [s, t] or [s, t, e] stations (mm; e the centroid's offset "
+             "to the member's left, 0 if left out)")
+    st = np.array([[number(v, f"member {i} profile {c}", _SIZE if c == "t" else _COORD)
+                    for v, c in zip([*p, 0.0][:3], "ste")] for p in prof])
     if st[0, 0] != 0.0 or np.any(np.diff(st[:, 0]) < 0) or abs(st[-1, 0] - length) > 1e-6 * max(length, 1.0):
         fail(f"member {i} profile: stations must rise from 0 to the member's length {length:.6g} mm")
     def pair(key: str, default: list, rule: Number) -> tuple:

@@ -88,12 +88,13 @@ def element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, K, Bm, KB
     b1, b2 = 2 * p11 * t1 + p12 * t2, p12 * t1 + 2 * p22 * t2
     qf[0], qf[1], qf[2] = q0, q1 + q0 * b1, q2 + q0 * b2
     energy = 0.5 * (e0 * q0 + t1 * q1 + t2 * q2)
-    # local tangent J^T Kn J + N d2(bow)/d(theta)2, J = I + e0 (0, b1, b2)
+    # local tangent J^T Kn J + N d2(bow)/d(theta)2, J = I + e0 (0, b1, b2) (Kn couples the
+    # stretch to the end rotations where a hinge's centroid leaves its axis)
     ka = kn[0, 0]
     k01, k02 = kn[0, 1] + ka * b1, kn[0, 2] + ka * b2
-    k11 = kn[1, 1] + ka * b1 * b1 + 2 * p11 * q0
-    k22 = kn[2, 2] + ka * b2 * b2 + 2 * p22 * q0
-    k12 = kn[1, 2] + ka * b1 * b2 + p12 * q0
+    k11 = kn[1, 1] + (2 * kn[0, 1] + ka * b1) * b1 + 2 * p11 * q0
+    k22 = kn[2, 2] + (2 * kn[0, 2] + ka * b2) * b2 + 2 * p22 * q0
+    k12 = kn[1, 2] + ka * b1 * b2 + kn[0, 2] * b1 + kn[0, 1] * b2 + p12 * q0
     # r = d(stretch)/dx, z = Ln d(chord angle)/dx in node dofs (xa, ya, ta, xb, yb, tb)
     r[0], r[1], r[2], r[3], r[4], r[5] = -c, -s, 0.0, c, s, 0.0
     z[0], z[1], z[2], z[3], z[4], z[5] = s, -c, 0.0, -s, c, 0.0

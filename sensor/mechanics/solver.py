@@ -89,8 +89,13 @@ def profile_flexibility(stations, b, E, G):
         C_NN = int ds / (E A),   C_VV = int (L - s)^2 ds / (E I) + 6/5 int ds / (G A),
         C_VM = int (L - s) ds / (E I),   C_MM = int ds / (E I).
 
-    A flexibility-based element: exact, up to the quadrature, for any EI(s), EA(s); for a
-    uniform member it equals :func:`cantilever_flexibility`.
+    With a third column e (mm, linear between stations), the section's centroid lies e to
+    the left of the axis, where the tip's loads act: the section's moment is
+    M + V (L - s) + N e, which adds C_NN += int e^2 ds / (E I), C_NV = int e (L - s) ds / (E I)
+    and C_NM = int e ds / (E I) (the same energy integrals, Castigliano's second theorem).
+
+    A flexibility-based element: exact, up to the quadrature, for any EI(s), EA(s) and e(s);
+    for a uniform member it equals :func:`cantilever_flexibility`.
     """
     st = np.asarray(stations, dtype=float)
     s, t = st[..., 0], st[..., 1]
@@ -108,6 +113,12 @@ def profile_flexibility(stations, b, E, G):
     C[..., 1, 1] = bending * (w * arm * arm * inv_t3).sum(-1) + SHEAR_FORM_FACTOR * (w * inv_t).sum(-1) / (G * b)
     C[..., 1, 2] = C[..., 2, 1] = bending * (w * arm * inv_t3).sum(-1)
     C[..., 2, 2] = bending * (w * inv_t3).sum(-1)
+    if st.shape[-1] > 2:
+        e = st[..., 2]
+        eq = (e[..., :-1, None] + np.diff(e, axis=-1)[..., None] * _GAUSS_X).reshape(inv_t.shape)
+        C[..., 0, 0] += bending * (w * eq * eq * inv_t3).sum(-1)
+        C[..., 0, 1] = C[..., 1, 0] = bending * (w * eq * arm * inv_t3).sum(-1)
+        C[..., 0, 2] = C[..., 2, 0] = bending * (w * eq * inv_t3).sum(-1)
     return C
 
 
@@ -344,28 +355,32 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     members = topo.flex[cols]
     # the integrals depend on the profile alone (a sweep's cells share a few): each distinct
     # profile is integrated once, then scaled by each design's E, G and depth
-    per = _profile_sections([m.profile_mm[k] for m in models for k in members]).reshape(len(models), len(members), 7)
+    per = _profile_sections([m.profile_mm[k] for m in models for k in members]).reshape(len(models), len(members), _N_SECTION)
     scale = (L0[:, cols] / np.array([[m.profile_mm[k][-1, 0] for k in members] for m in models]))
-    inv_t, inv_t3, arm1, arm2 = (per[..., i] for i in range(4))
+    inv_t, inv_t3, arm1, arm2, ecc2, ecc_arm, ecc = (per[..., i] for i in (0, 1, 2, 3, 7, 8, 9))
     bE, bG = E * b[:, cols], G * b[:, cols]
     bending = 12.0 / bE
     Cp = np.zeros(C[:, cols].shape)
-    Cp[..., 0, 0] = scale * inv_t / bE
+    Cp[..., 0, 0] = scale * inv_t / bE + bending * scale * ecc2
     Cp[..., 1, 1] = bending * scale**3 * arm2 + SHEAR_FORM_FACTOR * scale * inv_t / bG
     Cp[..., 1, 2] = Cp[..., 2, 1] = bending * scale**2 * arm1
     Cp[..., 2, 2] = bending * scale * inv_t3
+    Cp[..., 0, 1] = Cp[..., 1, 0] = bending * scale**2 * ecc_arm
+    Cp[..., 0, 2] = Cp[..., 2, 0] = bending * scale * ecc
     C[:, cols] = Cp
-    bow[:, cols] = per[..., 4:] * scale[..., None]
+    bow[:, cols] = per[..., 4:7] * scale[..., None]
     return C, bow
 
 
 _SECTIONS: dict = {}
+_N_SECTION = 10
 
 
 def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
-    """(n, 7): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
-    int (L-s)^2 ds/t^3, bowing p11, p12, p22) of :func:`profile_flexibility` and
-    :func:`profile_bowing` at unit E b, cached by its bytes; the profiles not cached yet
+    """(n, 10): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
+    int (L-s)^2 ds/t^3, bowing p11, p12, p22, int e^2 ds/t^3, int e (L-s) ds/t^3,
+    int e ds/t^3) of :func:`profile_flexibility` and :func:`profile_bowing` at unit E b,
+    cached by its bytes; the profiles not cached yet
     (every part of a Monte Carlo draw is new) are integrated together, one batch per number
     of stations."""
     if len(_SECTIONS) > 100_000:
@@ -374,15 +389,17 @@ def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
     new: dict[int, dict[bytes, np.ndarray]] = {}
     for key, p in zip(keys, profiles):
         if key not in _SECTIONS:
-            new.setdefault(len(p), {})[key] = p
+            new.setdefault(p.shape, {})[key] = p
     for group in new.values():
         st = np.array(list(group.values()))
-        C = profile_flexibility(st, 1.0, 1.0, np.inf)
+        C = profile_flexibility(st[..., :2], 1.0, 1.0, np.inf)
+        coupled = profile_flexibility(st, 1.0, 1.0, np.inf) - C if st.shape[-1] > 2 else np.zeros_like(C)
         with np.errstate(invalid="ignore", divide="ignore"):  # zero-length segments
             bow = np.nan_to_num(profile_bowing(st))
-        rows = np.column_stack([C[:, 0, 0], C[:, 2, 2] / 12.0, C[:, 1, 2] / 12.0, C[:, 1, 1] / 12.0, bow])
+        rows = np.column_stack([C[:, 0, 0], C[:, 2, 2] / 12.0, C[:, 1, 2] / 12.0, C[:, 1, 1] / 12.0, bow,
+                                coupled[:, 0, 0] / 12.0, coupled[:, 0, 1] / 12.0, coupled[:, 0, 2] / 12.0])
         _SECTIONS.update(zip(group, rows))
-    return np.array([_SECTIONS[k] for k in keys]).reshape(len(keys), 7)
+    return np.array([_SECTIONS[k] for k in keys]).reshape(len(keys), _N_SECTION)
 
 
 # --- results ---------------------------------------------------------------------------------

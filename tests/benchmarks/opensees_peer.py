@@ -39,6 +39,16 @@ def _axis(direction) -> tuple[int, float]:
     raise ValueError(f"output direction {direction}: the displacement control needs an axis-aligned port")
 
 
+def _centroid_offset(member: dict, fraction: float) -> float:
+    """The sections' centroid offset (mm, to the left of the chord: the profile's third
+    column) at a fraction of a member's length; 0 without one."""
+    profile = member.get("profile")
+    if not profile or len(profile[0]) < 3:
+        return 0.0
+    s, _, e = zip(*profile)
+    return float(np.interp(fraction * s[-1], s, e))
+
+
 def build(data: dict, n_elements: int) -> list[int]:
     """The OpenSees domain of the beam model; returns the tags of the compliant elements."""
     ops.wipe()
@@ -61,16 +71,19 @@ def build(data: dict, n_elements: int) -> list[int]:
             next_elem += 1
             continue
         (xa, ya), (xz, yz) = nodes[m["start"]], nodes[m["end"]]
+        length = float(np.hypot(xz - xa, yz - ya))
         chain = [a]
         for j in range(1, n_elements):
-            ops.node(next_node, xa + (xz - xa) * j / n_elements, ya + (yz - ya) * j / n_elements)
+            e = _centroid_offset(m, j / n_elements)  # the nodes on the sections' centroid line
+            ops.node(next_node, xa + (xz - xa) * j / n_elements - e * (yz - ya) / length,
+                     ya + (yz - ya) * j / n_elements + e * (xz - xa) / length)
             chain.append(next_node)
             next_node += 1
         chain.append(z)
         for e, (i, j) in enumerate(zip(chain, chain[1:])):
             tag = next_elem
             if "profile" in m:  # the section at each Lobatto point of the element
-                s_, t_ = zip(*m["profile"])
+                s_, t_ = zip(*[p[:2] for p in m["profile"]])
                 secs = []
                 for x in LOBATTO_X:
                     tx = float(np.interp((e + x) / n_elements * s_[-1], s_, t_))

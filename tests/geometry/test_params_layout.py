@@ -104,6 +104,25 @@ def test_beam_model_is_mirror_symmetric(name):
         np.testing.assert_allclose(mid[h1] * MIRROR, mid[h2], atol=1e-12)
 
 
+@pytest.mark.parametrize("name", ["sample-a-as-cut", "sample-b-as-cut"])
+def test_hinge_centroid_leaves_the_axis_towards_the_acute_fillet(name):
+    """Where a hinge meets a leaning face, the acute corner's fillet meets the neck further
+    from the face than the obtuse one's (``fillet_neck_mm``, which the stress rule reads),
+    and the sections' centroid (the profile's e, + to the member's left) leaves the axis to
+    that side; it is on the axis at the member's ends (the elastic roots) and the square
+    link end leaves the two fillets level."""
+    m = build_beam_model(preset(name))
+    for i in m.hinge_members:
+        e, (start, end) = m.profile_mm[i][:, 2], m.fillet_neck_mm[i]
+        body_at_start = start[0] != start[1]
+        assert body_at_start != (end[0] != end[1]), m.member_name[i]
+        left, right = start if body_at_start else end
+        acute_left = left > right if body_at_start else left < right
+        peak = e[np.argmax(np.abs(e))]
+        assert (peak > 0) == acute_left and abs(peak) > 0.01, (m.member_name[i], peak)
+        assert e[0] == e[-1] == 0.0
+
+
 def test_hinge_numbering_follows_figure48():
     m = build_beam_model(preset("sample-a"))
     lay = make_layout(preset("sample-a"))
@@ -229,6 +248,22 @@ def test_beam_model_json_round_trip(tmp_path):
     np.testing.assert_array_equal(m2.thickness_mm, m.thickness_mm)
     np.testing.assert_array_equal(m2.hinge_number, m.hinge_number)
     assert (m2.input_node, m2.output_node, m2.E_MPa, m2.nu) == (m.input_node, m.output_node, m.E_MPa, m.nu)
+    for p, q in zip(m.profile_mm, m2.profile_mm):
+        assert (p is None and q is None) or np.array_equal(p, q)
+
+
+def test_beam_model_json_profile_station_without_offset_is_centred():
+    """A profile station [s, t] (the schema before the centroid offset) reads as e = 0; a
+    station of four numbers is an error naming the member."""
+    good = model_to_dict(build_beam_model(preset("sample-b-as-cut")))
+    k = next(i for i, member in enumerate(good["members"]) if "profile" in member)
+    members = [dict(member) for member in good["members"]]
+    members[k]["profile"] = [p[:2] for p in members[k]["profile"]]
+    m = model_from_dict({**good, "members": members})
+    np.testing.assert_array_equal(m.profile_mm[k][:, 2], 0.0)
+    members[k]["profile"] = [p[:2] + [0.0, 1.0] for p in members[k]["profile"]]
+    with pytest.raises(GeometryError, match=f"member {k} profile = .*\\[s, t, e\\]"):
+        model_from_dict({**good, "members": members})
 
 
 def test_beam_model_json_errors():

@@ -13,7 +13,11 @@ length h and reference angle beta has, at its midpoint angle phi = beta + (theta
 and strain energy h/2 (EA eps^2 + k G A gamma^2 + EI kappa^2), k = 5/6 (the rectangle's shear
 correction, the inverse of the form factor 6/5), G = E / 2(1 + nu). This is exact in large
 rotation; as n grows it tends to the Timoshenko beam (error O(1/n^2), one-point integration
-keeps it free of shear locking). Members of kind ``rigid`` are exactly rigid: the nodes they
+keeps it free of shear locking). A member with a thickness profile has segments of its mean
+axial and bending compliance per length, their nodes on the sections' centroid line (the
+profile's e, to the left of the chord), so an axial force bends the offset part by the
+segments' geometry alone; each keeps its share of the chord's length as its reference
+length (the profile's sections are square to the chord, its fibres along it). Members of kind ``rigid`` are exactly rigid: the nodes they
 join form rigid bodies with three unknowns each. A dead load F along the input direction acts
 at the input node, and at equilibrium the total potential energy
 
@@ -104,13 +108,21 @@ def segment_thickness(profile, t: float, n_segments: int, samples: int = 64):
     return 1.0 / (1.0 / tx).mean(axis=1), ((tx**-3.0).mean(axis=1)) ** (-1.0 / 3.0)
 
 
+def centroid_offset(profile, s: np.ndarray) -> np.ndarray:
+    """The sections' centroid offset e (mm, to the left of the chord) at fractions s of a
+    member's length (0 without a profile or its e column)."""
+    if profile is None or profile.shape[1] < 3:
+        return np.zeros_like(s)
+    return np.interp(s * profile[-1, 0], profile[:, 0], profile[:, 2])
+
+
 def discretise(model: BeamModel, n_segments: int) -> Frame:
     """Split each compliant member of ``model`` into ``n_segments`` equal segments."""
     if not (isinstance(n_segments, int) and n_segments >= 1):
         raise ValueError(f"n_segments = {n_segments!r}: must be an integer >= 1")
     X = [np.asarray(model.nodes, dtype=float)]
     n0 = len(model.nodes)
-    seg, stiff = [], []
+    seg, stiff, lengths = [], [], []
     G = model.E_MPa / (2.0 * (1.0 + model.nu))
     rigid = np.array([k == "rigid" for k in model.member_kind])
     flex = np.flatnonzero(~rigid)
@@ -118,7 +130,11 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         (a, b), t, w = model.member_nodes[k], model.thickness_mm[k], model.depth_mm[k]
         s = np.linspace(0.0, 1.0, n_segments + 1)[1:-1, None]
         first = n0 + sum(len(x) for x in X[1:])
-        X.append((1 - s) * model.nodes[a] + s * model.nodes[b])
+        # the segments follow the sections' centroids: e (mm) to the left of the chord
+        chord = model.nodes[b] - model.nodes[a]
+        left = np.array([-chord[1], chord[0]]) / np.linalg.norm(chord)
+        X.append((1 - s) * model.nodes[a] + s * model.nodes[b] + centroid_offset(model.profile_mm[k], s) * left)
+        lengths.append(np.full(n_segments, np.linalg.norm(chord) / n_segments))
         chain = np.concatenate([[a], np.arange(first, first + n_segments - 1), [b]])
         seg.append(np.column_stack([chain[:-1], chain[1:]]))
         t_axial, t_bend = segment_thickness(model.profile_mm[k], t, n_segments)
@@ -146,7 +162,7 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         ref[c] = np.flatnonzero(body == c)[0]
     dof = -np.ones((nb, 3), dtype=int)
     dof[~held] = np.arange(int((~held).sum()))
-    return Frame(X, seg, np.linalg.norm(d, axis=1), np.arctan2(d[:, 1], d[:, 0]),
+    return Frame(X, seg, np.concatenate(lengths), np.arctan2(d[:, 1], d[:, 0]),
                  np.concatenate(stiff), body, X - X[ref[body]], dof, int((~held).sum()),
                  int(model.input_node), np.asarray(model.input_direction, float),
                  int(model.output_node), np.asarray(model.output_direction, float))
@@ -355,4 +371,4 @@ def _piece_profile(profile, i: int, n: int):
     lo, hi = i * length / n, (i + 1) * length / n
     inside = profile[(profile[:, 0] > lo) & (profile[:, 0] < hi), 0]
     s = np.concatenate([[lo], inside, [hi]])
-    return np.column_stack([s - lo, np.interp(s, profile[:, 0], profile[:, 1])])
+    return np.column_stack([s - lo] + [np.interp(s, profile[:, 0], profile[:, c]) for c in range(1, profile.shape[1])])

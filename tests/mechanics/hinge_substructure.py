@@ -113,7 +113,8 @@ def beam_compliance(t, neck_mm, gamma_deg, r):
     lw, ll = LINK_MM
     ends = ((r, math.inf, gamma_deg, BLOCK_MM[1]), (r, (lw - t) / 2, 0.0, lw))  # the block's face is long
     stations, _, length, behind, _ = hinge_profile(t, neck_mm, ends)
-    hinge = profile_flexibility(np.asarray(stations), 1.0, E_MPA, G_MPA)
+    # the neck leans towards +x: its acute corner, where the centroid moves, is on the right
+    hinge = profile_flexibility(np.asarray(stations) * (1.0, 1.0, -1.0), 1.0, E_MPA, G_MPA)
     rest = neck_mm + ll - (length - behind)          # the link past the hinge member's end
     carry = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, rest, 1.0]])  # end loads at the member's tip
     return cantilever_flexibility(rest, lw, 1.0, E_MPA, G_MPA) + carry.T @ hinge @ carry

@@ -15,7 +15,8 @@ from sensor.errors import (
     SnapThroughError,
     UnreachableTargetError,
 )
-from sensor.mechanics.solver import SHEAR_FORM_FACTOR, SolverOptions, solve, solve_batch
+from sensor.mechanics.solver import (SHEAR_FORM_FACTOR, SolverOptions, cantilever_flexibility, profile_flexibility, solve,
+                                     solve_batch)
 
 E, NU = 2000.0, 0.3
 CLAMP = ("x", "y", "rz")
@@ -43,6 +44,20 @@ def test_linear_cantilever_axial_force_matches_closed_form():
     F = 1e-3
     r = solve(m, target_force_N=F, options=SolverOptions(increments=1))
     assert r.output_travel_mm == pytest.approx(F * L / (E * t * b), rel=1e-9)
+
+
+def test_profile_flexibility_of_an_offset_centroid_is_the_rigid_offset_transform():
+    """A uniform member whose centroid lies e to the left of the axis the loads act on is the
+    uniform cantilever on the centroid line, reached through rigid arms of length e at both
+    ends: the axis' loads (N, V, M) become (N, V, M + e N) there, so C = T^T C0 T with
+    T = [[1, 0, 0], [0, 1, 0], [e, 0, 1]] (statics, not the integrals: exact to rounding)."""
+    L, t, b, e, G = 3.0, 0.4, 5.0, 0.07, E / (2 * (1 + NU))
+    stations = np.array([[0.0, t, e], [L / 3, t, e], [L, t, e]])
+    T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [e, 0.0, 1.0]])
+    expected = T.T @ cantilever_flexibility(L, t, b, E, G) @ T
+    np.testing.assert_allclose(profile_flexibility(stations, b, E, G), expected, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(profile_flexibility(stations[:, :2], b, E, G), cantilever_flexibility(L, t, b, E, G),
+                               rtol=1e-12)
 
 
 def test_linear_cantilever_tip_force_and_moment_match_closed_form():

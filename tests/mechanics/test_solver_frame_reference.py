@@ -146,15 +146,20 @@ def test_reference_is_converged_in_the_number_of_segments(name):
 @pytest.mark.parametrize("name", SPECIMENS)
 def test_solver_matches_reference_in_the_linear_limit(name):
     """At 1e-4 of the 1-mm force both models are linear Timoshenko frames (the solver's
-    Castigliano stiffness is exact there), so they differ only by the reference's O(1/n^2)
-    discretisation (measured <= 6e-5 at n = 32, 2.3e-4 at n = 16) and ~1e-6 of nonlinearity:
-    2e-4, a hundred times tighter than the 2 % at 1 mm."""
+    Castigliano stiffness is exact there), so they differ by the reference's O(1/n^2)
+    discretisation (measured <= 6e-5 at n = 32, 2.3e-4 at n = 16, on sections centred on
+    the axis), ~1e-6 of nonlinearity, and where a leaning face's fillets move the sections'
+    centroid off the axis, by the reference's straight segments along the centroids'
+    polyline (inclined up to about 14 deg there), which share an axial force between their
+    stretch and shear where the solver's sections stay square to the axis: an O(slope^2)
+    difference of the two idealisations, measured <= 5.2e-4 (sample B's k_out) at n = 32
+    and 64 alike. Hence 1e-3, twenty times tighter than the 2 % at 1 mm."""
     force = 1e-4 * main(name).input_force_N
     r = solve(model(name), target_force_N=force)
     f = reference(name, N_REF, force)
-    assert rel(r.amplification, f.amplification) < 2e-4
-    assert rel(r.k_out_N_per_mm, f.k_out_N_per_mm) < 2e-4
-    assert rel(r.strain_energy_mJ, f.strain_energy_mJ) < 2e-4
+    assert rel(r.amplification, f.amplification) < 1e-3
+    assert rel(r.k_out_N_per_mm, f.k_out_N_per_mm) < 1e-3
+    assert rel(r.strain_energy_mJ, f.strain_energy_mJ) < 1e-3
 
 
 @pytest.mark.parametrize("name", PRESETS)

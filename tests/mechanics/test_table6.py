@@ -23,10 +23,10 @@ def rows():
 
 def test_delrin_modulus_is_the_calibration_on_the_measured_basis():
     """The basis specimen as cut (Table 7 hinges, 0.8 mm kerf fillets) at its measured
-    0.227 mm/N gives delrin's modulus, 1.78 GPa (the stored value to its 0.1 MPa rounding),
+    0.227 mm/N gives delrin's modulus, 1.79 GPa (the stored value to its 0.1 MPa rounding),
     and the basis row reproduces the measurement."""
     assert calibrate_modulus() == pytest.approx(MATERIALS["delrin"].E_MPa, abs=0.1)
-    assert calibrate_modulus() == pytest.approx(1782.5, rel=1e-3)
+    assert calibrate_modulus() == pytest.approx(1786.4, rel=1e-3)
 
 
 def test_hinge_length_agrees_with_the_modulus_calibration():
