@@ -232,10 +232,12 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
                        + [face1 - (face1 - n) * arc for _, n, _ in end])
     s = np.sort(np.clip(s, face0, face1))
 
-    def sides(x):  # on each side of the neck, the higher of its two fillets
+    def fill_heights(x):  # on each side of the neck, the higher of its two ends' fillets
         return [np.maximum(_fill_mm(x, a), _fill_mm(-x, (-f, -n, r))) for a, (f, n, r) in zip(start, end)]
 
-    acute, obtuse = sides(s)
+    # each side pairs the two ends' acute-corner (or obtuse-corner) fillets: a hinge leans at
+    # one end only (its link end is square), so the sides are the leaning face's two corners
+    acute, obtuse = fill_heights(s)
     t = t_mm + acute + obtuse
     e = (acute - obtuse) / 2  # the section's centroid, off the axis towards the acute corner
     da = root_depth_mm(t_mm, gamma_deg=ends[0][2], body_mm=ends[0][3])

@@ -381,12 +381,12 @@ def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
     int (L-s)^2 ds/t^3, bowing p11, p12, p22, int e^2 ds/t^3, int e (L-s) ds/t^3,
     int e ds/t^3) of :func:`profile_flexibility` and :func:`profile_bowing` at unit E b,
     cached by its bytes; the profiles not cached yet
-    (every part of a Monte Carlo draw is new) are integrated together, one batch per number
-    of stations."""
+    (every part of a Monte Carlo draw is new) are integrated together, one batch per shape
+    of their station arrays."""
     if len(_SECTIONS) > 100_000:
         _SECTIONS.clear()
     keys = [p.tobytes() for p in profiles]
-    new: dict[int, dict[bytes, np.ndarray]] = {}
+    new: dict[tuple, dict[bytes, np.ndarray]] = {}
     for key, p in zip(keys, profiles):
         if key not in _SECTIONS:
             new.setdefault(p.shape, {})[key] = p
