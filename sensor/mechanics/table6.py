@@ -6,7 +6,7 @@ The beam model predicts the part as cut: every hinge root carries the jet's fill
 One effective parameter is then fitted on measurement, as the thesis did (section 6.2.4: it
 calibrated E = 2.3 GPa on the basis sample with its own model): the delrin's effective
 Young's modulus, on the basis specimen as cut (Table 7 hinges), to its measured sensitivity
-0.227 mm/N (Table 6). :func:`calibrate_modulus` gives 1.78 GPa, the value of
+0.227 mm/N (Table 6). :func:`calibrate_modulus` gives 1.79 GPa, the value of
 ``geometry.params.MATERIALS["delrin"]``; it absorbs what neither model carries (the
 water-jet's V-shaped taper, the sheet's own modulus at the test's rate). The drawn hinge
 length (2.82 mm, a drawn dimension the thesis does not give) cannot take the calibration
