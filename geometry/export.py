@@ -194,7 +194,7 @@ def export_design(design: Design, out_dir: str | Path, formats: Iterable[str] = 
 
     ``dxf``: the water-jet profile (with ``kerf_mm``: the jet's centre path, see
     :func:`kerf_path`); ``stl`` and ``step``: the extruded body; ``json``: the beam model
-    (schema ``dacm-beam-model/1``, see :mod:`geometry.topology`). The design's feasibility
+    (schema ``dacm-beam-model/2``, see :mod:`geometry.topology`). The design's feasibility
     is checked and every file is built and checked before the first is written, so a bad
     design or kerf writes nothing (not even the folder).
     """

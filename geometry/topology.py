@@ -4,9 +4,10 @@ This is what the chain-algorithm solver consumes (thesis section 6.2.1, Figure 4
 members (each a compliant hinge, a link, or a rigid connection inside a plate or block), the
 clamped support, the input port and the output port.
 
-JSON schema ``dacm-beam-model/1`` (units mm, MPa)::
+JSON schema ``dacm-beam-model/2`` (units mm, MPa; ``/1`` is read too: its profile stations
+are [s, t])::
 
-    {"schema": "dacm-beam-model/1",
+    {"schema": "dacm-beam-model/2",
      "units": {"length": "mm", "modulus": "MPa"},
      "material": {"name": str, "E_MPa": float, "nu": float},
      "nodes": [[x, y], ...],
@@ -51,7 +52,9 @@ from geometry.layout import Layout, make_layout, side_members
 from geometry.params import MAX_LENGTH_MM, Design
 from geometry.validation import Number, is_integer, is_real
 
-SCHEMA = "dacm-beam-model/1"
+SCHEMA = "dacm-beam-model/2"
+#: Schemas read: /1 had [s, t] profile stations (no centroid offset), which read as e = 0.
+READABLE_SCHEMAS = (SCHEMA, "dacm-beam-model/1")
 MEMBER_KINDS = ("hinge", "link", "rigid")
 DOF_NAMES = ("x", "y", "rz")
 
@@ -213,7 +216,9 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
     differ (the acute corner's reaches further along the neck), so the section's centroid
     leaves the axis by e = (acute - obtuse fillet height) / 2 towards the acute corner: an
     axial force bends the fillets (the member's axial-bending coupling,
-    sensor.mechanics.solver.profile_flexibility).
+    sensor.mechanics.solver.profile_flexibility). The elastic root is clamped on the axis, so
+    e runs from 0 there to its value at the face (linear between those two stations), as the
+    root rule's constants were fitted with.
 
     Cached (a sweep's cells share their hinges); the stations are read-only.
     Returns (stations (k, 3) of s, t and e, (s0, s1) where the uniform neck starts and ends,
@@ -237,6 +242,9 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
 
     # each side pairs the two ends' acute-corner (or obtuse-corner) fillets: a hinge leans at
     # one end only (its link end is square), so the sides are the leaning face's two corners
+    if ends[0][2] != 0 and ends[1][2] != 0:
+        raise GeometryError(f"hinge profile: both ends lean ({ends[0][2]:g}, {ends[1][2]:g} deg); "
+                            "one end must be square")
     acute, obtuse = fill_heights(s)
     t = t_mm + acute + obtuse
     e = (acute - obtuse) / 2  # the section's centroid, off the axis towards the acute corner
@@ -437,7 +445,8 @@ def _centroid_left(stations: np.ndarray, acute_left: bool) -> np.ndarray:
     (hinge_profile gives it towards the acute corner)."""
     if acute_left:
         return stations
-    out = stations * (1.0, 1.0, -1.0)
+    out = stations.copy()
+    out[:, 2] = 0.0 - stations[:, 2]  # 0.0 - x: no -0.0 (profiles are cached by their bytes)
     out.flags.writeable = False
     return out
 
@@ -450,7 +459,7 @@ def _left_right(acute_obtuse: tuple, acute_left: bool) -> tuple:
 # --- JSON ------------------------------------------------------------------------------
 
 def model_to_dict(model: BeamModel) -> dict:
-    """The beam model as a dict of schema ``dacm-beam-model/1``."""
+    """The beam model as a dict of schema ``dacm-beam-model/2``."""
     return {
         "schema": SCHEMA,
         "units": {"length": "mm", "modulus": "MPa"},
@@ -488,7 +497,7 @@ MAX_MODEL_ITEMS = 10_000
 
 
 def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
-    """Read a beam model from a schema ``dacm-beam-model/1`` dict, checking every field:
+    """Read a beam model from a schema ``dacm-beam-model/2`` (or ``/1``) dict, checking every field:
     types, finiteness, ranges, node indices (integers, not truncated), no unknown keys.
     Raises :class:`GeometryError` naming the field, the value and the rule."""
     def fail(msg):
@@ -529,8 +538,8 @@ def model_from_dict(data: dict, source: str = "beam model") -> BeamModel:
         return _unit(value)
 
     table(data, "model", _MODEL_KEYS, sorted(_MODEL_KEYS - {"units"}))
-    if data["schema"] != SCHEMA:
-        fail(f"schema = {data['schema']!r}: expected {SCHEMA!r}")
+    if data["schema"] not in READABLE_SCHEMAS:
+        fail(f"schema = {data['schema']!r}: expected one of {', '.join(map(repr, READABLE_SCHEMAS))}")
     mat = table(data["material"], "material", {"name", "E_MPa", "nu"}, ("E_MPa", "nu"))
     E = number(mat["E_MPa"], "material E_MPa", Number(0.0, 1e7, lo_open=True, unit="MPa"))
     nu = number(mat["nu"], "material nu", Number(0.0, 0.5, hi_open=True))

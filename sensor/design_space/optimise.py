@@ -473,8 +473,9 @@ def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
     """Variables z snapped onto the hinge bounds they are within ``atol`` (in log t) of, the
     other hinges scaled together to bring the range back to the target (all hinges if every
     one is at a bound, or if the others do not raise it: a group can barely move the range,
-    or even lower it, where its bending and its centroid's axial coupling balance); None
-    when that cannot be done inside the bounds."""
+    or even lower it, where its bending and its centroid's axial coupling balance; the
+    snapped hinges then leave their bounds, inwards or not at all); None when that cannot be
+    done inside the bounds."""
     z = np.array(z, dtype=float)
     k = problem.n_angles
     lo, hi = problem.lower[k:], problem.upper[k:]
@@ -495,7 +496,10 @@ def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
         h = -1e-5                         # thinning: never past the upper bound
         z2 = z.copy()
         z2[k:][free] += h
-        slope = (evaluate(problem, z2[None])[0].log_range_error - err) / h
+        probe = evaluate(problem, z2[None])[0]
+        if not probe.ok:
+            return None
+        slope = (probe.log_range_error - err) / h
         if not slope > 0 and not free.all():
             free[:] = True
             continue

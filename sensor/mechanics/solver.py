@@ -385,7 +385,7 @@ def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
     of their station arrays."""
     if len(_SECTIONS) > 100_000:
         _SECTIONS.clear()
-    keys = [p.tobytes() for p in profiles]
+    keys = [(p.shape, p.tobytes()) for p in profiles]
     new: dict[tuple, dict[bytes, np.ndarray]] = {}
     for key, p in zip(keys, profiles):
         if key not in _SECTIONS:

@@ -1,5 +1,5 @@
 """The peer solver of the solve benchmark: OpenSeesPy on a dacm beam model JSON
-(``dacm export --beam-model``, schema dacm-beam-model/1).
+(``dacm export --beam-model``, schema dacm-beam-model/2).
 
 Each compliant member (hinge, link) is ``n_elements`` co-rotational force-based beam
 elements with an elastic section that includes shear (G = E / 2(1 + nu), shear factor 5/6
@@ -72,22 +72,27 @@ def build(data: dict, n_elements: int) -> list[int]:
             continue
         (xa, ya), (xz, yz) = nodes[m["start"]], nodes[m["end"]]
         length = float(np.hypot(xz - xa, yz - ya))
-        chain = [a]
+        chain, points = [a], [(xa, ya)]
         for j in range(1, n_elements):
-            e = _centroid_offset(m, j / n_elements)  # the nodes on the sections' centroid line
-            ops.node(next_node, xa + (xz - xa) * j / n_elements - e * (yz - ya) / length,
-                     ya + (yz - ya) * j / n_elements + e * (xz - xa) / length)
+            off = _centroid_offset(m, j / n_elements)  # the nodes on the sections' centroid line
+            points.append((xa + (xz - xa) * j / n_elements - off * (yz - ya) / length,
+                           ya + (yz - ya) * j / n_elements + off * (xz - xa) / length))
+            ops.node(next_node, *points[-1])
             chain.append(next_node)
             next_node += 1
         chain.append(z)
+        points.append((xz, yz))
         for e, (i, j) in enumerate(zip(chain, chain[1:])):
             tag = next_elem
+            # an element inclined off the chord is longer than its share of it: its moduli
+            # scale by that ratio, so that its compliance is the share's (as the frame reference)
+            stretch = float(np.hypot(*np.subtract(points[e + 1], points[e]))) / (length / n_elements)
             if "profile" in m:  # the section at each Lobatto point of the element
                 s_, t_ = zip(*[p[:2] for p in m["profile"]])
                 secs = []
                 for x in LOBATTO_X:
                     tx = float(np.interp((e + x) / n_elements * s_[-1], s_, t_))
-                    ops.section("Elastic", next_section, E, tx * b, b * tx**3 / 12, G, 5 / 6)
+                    ops.section("Elastic", next_section, E * stretch, tx * b, b * tx**3 / 12, G * stretch, 5 / 6)
                     secs.append(next_section)
                     next_section += 1
                 ops.beamIntegration("UserDefined", tag, LOBATTO_POINTS, *secs, *LOBATTO_X, *LOBATTO_W)

@@ -253,13 +253,14 @@ def test_beam_model_json_round_trip(tmp_path):
 
 
 def test_beam_model_json_profile_station_without_offset_is_centred():
-    """A profile station [s, t] (the schema before the centroid offset) reads as e = 0; a
+    """A profile station [s, t] (schema /1, before the centroid offset) reads as e = 0; a
     station of four numbers is an error naming the member."""
     good = model_to_dict(build_beam_model(preset("sample-b-as-cut")))
     k = next(i for i, member in enumerate(good["members"]) if "profile" in member)
     members = [dict(member) for member in good["members"]]
     members[k]["profile"] = [p[:2] for p in members[k]["profile"]]
-    m = model_from_dict({**good, "members": members})
+    assert good["schema"] == "dacm-beam-model/2"
+    m = model_from_dict({**good, "schema": "dacm-beam-model/1", "members": members})
     np.testing.assert_array_equal(m.profile_mm[k][:, 2], 0.0)
     members[k]["profile"] = [p[:2] + [0.0, 1.0] for p in members[k]["profile"]]
     with pytest.raises(GeometryError, match=f"member {k} profile = .*\\[s, t, e\\]"):

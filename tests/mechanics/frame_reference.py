@@ -16,8 +16,10 @@ rotation; as n grows it tends to the Timoshenko beam (error O(1/n^2), one-point 
 keeps it free of shear locking). A member with a thickness profile has segments of its mean
 axial and bending compliance per length, their nodes on the sections' centroid line (the
 profile's e, to the left of the chord), so an axial force bends the offset part by the
-segments' geometry alone; each keeps its share of the chord's length as its reference
-length (the profile's sections are square to the chord, its fibres along it). Members of kind ``rigid`` are exactly rigid: the nodes they
+segments' geometry alone; a segment inclined off the chord keeps its own length as its
+reference (a rigid rotation strains nothing) and has its stiffnesses scaled by that length
+over its share of the chord's, so that its compliance is that share's (the profile's
+sections are square to the chord). Members of kind ``rigid`` are exactly rigid: the nodes they
 join form rigid bodies with three unknowns each. A dead load F along the input direction acts
 at the input node, and at equilibrium the total potential energy
 
@@ -122,7 +124,7 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         raise ValueError(f"n_segments = {n_segments!r}: must be an integer >= 1")
     X = [np.asarray(model.nodes, dtype=float)]
     n0 = len(model.nodes)
-    seg, stiff, lengths = [], [], []
+    seg, stiff, chord_share = [], [], []
     G = model.E_MPa / (2.0 * (1.0 + model.nu))
     rigid = np.array([k == "rigid" for k in model.member_kind])
     flex = np.flatnonzero(~rigid)
@@ -134,7 +136,7 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         chord = model.nodes[b] - model.nodes[a]
         left = np.array([-chord[1], chord[0]]) / np.linalg.norm(chord)
         X.append((1 - s) * model.nodes[a] + s * model.nodes[b] + centroid_offset(model.profile_mm[k], s) * left)
-        lengths.append(np.full(n_segments, np.linalg.norm(chord) / n_segments))
+        chord_share.append(np.full(n_segments, np.linalg.norm(chord) / n_segments))
         chain = np.concatenate([[a], np.arange(first, first + n_segments - 1), [b]])
         seg.append(np.column_stack([chain[:-1], chain[1:]]))
         t_axial, t_bend = segment_thickness(model.profile_mm[k], t, n_segments)
@@ -144,6 +146,11 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
     X = np.concatenate(X)
     seg = np.concatenate(seg)
     d = X[seg[:, 1]] - X[seg[:, 0]]
+    h = np.linalg.norm(d, axis=1)
+    # a segment inclined off the chord is longer than its share of it: its stiffnesses scale
+    # by h / share so that its compliance is the share's (the profile's sections are square
+    # to the chord), and its reference length stays its own (a rigid rotation strains nothing)
+    stiff = np.concatenate(stiff) * (h / np.concatenate(chord_share))[:, None]
     N = len(X)
     # rigid bodies: connected components of the graph of rigid members
     rm = model.member_nodes[rigid]
@@ -162,8 +169,7 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         ref[c] = np.flatnonzero(body == c)[0]
     dof = -np.ones((nb, 3), dtype=int)
     dof[~held] = np.arange(int((~held).sum()))
-    return Frame(X, seg, np.concatenate(lengths), np.arctan2(d[:, 1], d[:, 0]),
-                 np.concatenate(stiff), body, X - X[ref[body]], dof, int((~held).sum()),
+    return Frame(X, seg, h, np.arctan2(d[:, 1], d[:, 0]), stiff, body, X - X[ref[body]], dof, int((~held).sum()),
                  int(model.input_node), np.asarray(model.input_direction, float),
                  int(model.output_node), np.asarray(model.output_direction, float))
 

@@ -8,12 +8,14 @@ a dead load; it shares no code with sensor.mechanics.solver.
 Measured (n = 32, relative difference solver/reference - 1, at the solver's 1-mm force):
 
     preset            A        k_out    SE
-    basis             0.00 %   0.00 %   -0.00 %
-    sample-a         +0.01 %  -0.00 %   -0.01 %
-    sample-b         +0.03 %  +0.06 %   -0.14 %
-    basis-as-cut      0.00 %  -0.00 %   -0.00 %
-    sample-a-as-cut  +0.01 %  -0.00 %   -0.01 %
-    sample-b-as-cut  +0.03 %  +0.06 %   -0.16 %
+    basis            +0.00 %  -0.01 %   +0.01 %
+    sample-a         +0.02 %  +0.01 %   -0.04 %
+    sample-b         +0.05 %  +0.08 %   -0.19 %
+    basis-as-cut     -0.00 %  -0.01 %   +0.01 %
+    sample-a-as-cut  +0.01 %  +0.01 %   -0.03 %
+    sample-b-as-cut  +0.05 %  +0.08 %   -0.20 %
+
+(since the hinges' centroid offset: the reference's segments follow the centroids)
 
 Before the solver's members carried the bowing (shallow-arch) term, its one linear element
 per member left sample-b's k_out 2.4 % low; splitting members converged it as 1/n^2. With the
@@ -150,16 +152,17 @@ def test_solver_matches_reference_in_the_linear_limit(name):
     discretisation (measured <= 6e-5 at n = 32, 2.3e-4 at n = 16, on sections centred on
     the axis), ~1e-6 of nonlinearity, and where a leaning face's fillets move the sections'
     centroid off the axis, by the reference's straight segments along the centroids'
-    polyline (inclined up to about 14 deg there), which share an axial force between their
-    stretch and shear where the solver's sections stay square to the axis: an O(slope^2)
-    difference of the two idealisations, measured <= 5.2e-4 (sample B's k_out) at n = 32
-    and 64 alike. Hence 1e-3, twenty times tighter than the 2 % at 1 mm."""
+    polyline (inclined up to about 19 deg there, each with its share of the chord's
+    compliance), which share an axial force between their stretch and shear where the
+    solver's sections stay square to the axis: an O(slope^2) difference of the two
+    idealisations, measured <= 3.1e-4 (sample B's A and SE; k_out 5e-5) at n = 32 and 64
+    alike. Hence 5e-4, forty times tighter than the 2 % at 1 mm."""
     force = 1e-4 * main(name).input_force_N
     r = solve(model(name), target_force_N=force)
     f = reference(name, N_REF, force)
-    assert rel(r.amplification, f.amplification) < 1e-3
-    assert rel(r.k_out_N_per_mm, f.k_out_N_per_mm) < 1e-3
-    assert rel(r.strain_energy_mJ, f.strain_energy_mJ) < 1e-3
+    assert rel(r.amplification, f.amplification) < 5e-4
+    assert rel(r.k_out_N_per_mm, f.k_out_N_per_mm) < 5e-4
+    assert rel(r.strain_energy_mJ, f.strain_energy_mJ) < 5e-4
 
 
 @pytest.mark.parametrize("name", PRESETS)
@@ -170,7 +173,7 @@ def test_solver_amplification_matches_reference_at_1mm(name):
 
 @pytest.mark.parametrize("name", PRESETS)
 def test_solver_output_stiffness_matches_reference_at_1mm(name):
-    """Issue 3: k_out = F / u_out within 2 % at the solver's 1-mm force (measured <= 0.06 %)."""
+    """Issue 3: k_out = F / u_out within 2 % at the solver's 1-mm force (measured <= 0.08 %)."""
     assert rel(main(name).k_out_N_per_mm, reference(name).k_out_N_per_mm) < REQUIREMENT
 
 
