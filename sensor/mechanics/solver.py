@@ -80,6 +80,33 @@ def cantilever_flexibility(L, t, b, E, G):
 _GAUSS_X, _GAUSS_W = ((np.polynomial.legendre.leggauss(3)[0] + 1) / 2, np.polynomial.legendre.leggauss(3)[1] / 2)
 
 
+def _profile_integrals(stations) -> np.ndarray:
+    """(..., 7): int ds/t, int ds/t^3, int (L-s) ds/t^3, int (L-s)^2 ds/t^3, int e^2 ds/t^3,
+    int e (L-s) ds/t^3 and int e ds/t^3 (mm powers) under the stations (..., k, 2 or 3) of s,
+    t and, if given, e (all linear between stations; 3-point Gauss on each segment)."""
+    st = np.asarray(stations, dtype=float)
+    s, t = st[..., 0], st[..., 1]
+    h = np.diff(s, axis=-1)[..., None]                                 # (..., k-1, 1)
+    sq = s[..., :-1, None] + h * _GAUSS_X                              # (..., k-1, 3)
+    tq = t[..., :-1, None] + np.diff(t, axis=-1)[..., None] * _GAUSS_X
+    w = (h * _GAUSS_W).reshape(*h.shape[:-2], -1)                      # (..., 3 (k-1))
+    arm = (s[..., -1:] - sq.reshape(*sq.shape[:-2], -1))               # L - s
+    inv_t = 1.0 / tq.reshape(*tq.shape[:-2], -1)
+    w3 = w * inv_t**3
+    out = np.zeros(s.shape[:-1] + (7,))
+    out[..., 0] = (w * inv_t).sum(-1)
+    out[..., 1] = w3.sum(-1)
+    out[..., 2] = (w3 * arm).sum(-1)
+    out[..., 3] = (w3 * arm * arm).sum(-1)
+    if st.shape[-1] > 2:
+        e = st[..., 2]
+        eq = (e[..., :-1, None] + np.diff(e, axis=-1)[..., None] * _GAUSS_X).reshape(inv_t.shape)
+        out[..., 4] = (w3 * eq * eq).sum(-1)
+        out[..., 5] = (w3 * eq * arm).sum(-1)
+        out[..., 6] = (w3 * eq).sum(-1)
+    return out
+
+
 def profile_flexibility(stations, b, E, G):
     """Tip flexibility (..., 3, 3) of a cantilever whose in-plane thickness varies along it:
     the integrals of eqs 80-82 with the section's A(s) = t(s) b and I(s) = b t(s)^3 / 12
@@ -97,28 +124,16 @@ def profile_flexibility(stations, b, E, G):
     A flexibility-based element: exact, up to the quadrature, for any EI(s), EA(s) and e(s);
     for a uniform member it equals :func:`cantilever_flexibility`.
     """
-    st = np.asarray(stations, dtype=float)
-    s, t = st[..., 0], st[..., 1]
-    h = np.diff(s, axis=-1)[..., None]                                 # (..., k-1, 1)
-    sq = s[..., :-1, None] + h * _GAUSS_X                              # (..., k-1, 3)
-    tq = t[..., :-1, None] + np.diff(t, axis=-1)[..., None] * _GAUSS_X
-    w = (h * _GAUSS_W).reshape(*h.shape[:-2], -1)                      # (..., 3 (k-1))
-    arm = (s[..., -1:] - sq.reshape(*sq.shape[:-2], -1))               # L - s
-    inv_t = 1.0 / tq.reshape(*tq.shape[:-2], -1)
-    inv_t3 = inv_t**3
+    q = _profile_integrals(stations)
     b, E, G = (np.asarray(v, dtype=float) for v in (b, E, G))
     bending = 12.0 / (E * b)
-    C = np.zeros(s.shape[:-1] + (3, 3))
-    C[..., 0, 0] = (w * inv_t).sum(-1) / (E * b)
-    C[..., 1, 1] = bending * (w * arm * arm * inv_t3).sum(-1) + SHEAR_FORM_FACTOR * (w * inv_t).sum(-1) / (G * b)
-    C[..., 1, 2] = C[..., 2, 1] = bending * (w * arm * inv_t3).sum(-1)
-    C[..., 2, 2] = bending * (w * inv_t3).sum(-1)
-    if st.shape[-1] > 2:
-        e = st[..., 2]
-        eq = (e[..., :-1, None] + np.diff(e, axis=-1)[..., None] * _GAUSS_X).reshape(inv_t.shape)
-        C[..., 0, 0] += bending * (w * eq * eq * inv_t3).sum(-1)
-        C[..., 0, 1] = C[..., 1, 0] = bending * (w * eq * arm * inv_t3).sum(-1)
-        C[..., 0, 2] = C[..., 2, 0] = bending * (w * eq * inv_t3).sum(-1)
+    C = np.zeros(q.shape[:-1] + (3, 3))
+    C[..., 0, 0] = q[..., 0] / (E * b) + bending * q[..., 4]
+    C[..., 1, 1] = bending * q[..., 3] + SHEAR_FORM_FACTOR * q[..., 0] / (G * b)
+    C[..., 1, 2] = C[..., 2, 1] = bending * q[..., 2]
+    C[..., 2, 2] = bending * q[..., 1]
+    C[..., 0, 1] = C[..., 1, 0] = bending * q[..., 5]
+    C[..., 0, 2] = C[..., 2, 0] = bending * q[..., 6]
     return C
 
 
@@ -379,8 +394,8 @@ _N_SECTION = 10
 def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
     """(n, 10): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
     int (L-s)^2 ds/t^3, bowing p11, p12, p22, int e^2 ds/t^3, int e (L-s) ds/t^3,
-    int e ds/t^3) of :func:`profile_flexibility` and :func:`profile_bowing` at unit E b,
-    cached by its bytes; the profiles not cached yet
+    int e ds/t^3) of :func:`_profile_integrals` and :func:`profile_bowing`, cached by its
+    shape and bytes; the profiles not cached yet
     (every part of a Monte Carlo draw is new) are integrated together, one batch per shape
     of their station arrays."""
     if len(_SECTIONS) > 100_000:
@@ -392,12 +407,10 @@ def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
             new.setdefault(p.shape, {})[key] = p
     for group in new.values():
         st = np.array(list(group.values()))
-        C = profile_flexibility(st[..., :2], 1.0, 1.0, np.inf)
-        coupled = profile_flexibility(st, 1.0, 1.0, np.inf) - C if st.shape[-1] > 2 else np.zeros_like(C)
+        q = _profile_integrals(st)
         with np.errstate(invalid="ignore", divide="ignore"):  # zero-length segments
             bow = np.nan_to_num(profile_bowing(st))
-        rows = np.column_stack([C[:, 0, 0], C[:, 2, 2] / 12.0, C[:, 1, 2] / 12.0, C[:, 1, 1] / 12.0, bow,
-                                coupled[:, 0, 0] / 12.0, coupled[:, 0, 1] / 12.0, coupled[:, 0, 2] / 12.0])
+        rows = np.column_stack([q[:, :4], bow, q[:, 4:]])
         _SECTIONS.update(zip(group, rows))
     return np.array([_SECTIONS[k] for k in keys]).reshape(len(keys), _N_SECTION)
 
