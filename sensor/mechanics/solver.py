@@ -124,16 +124,22 @@ def profile_flexibility(stations, b, E, G):
     A flexibility-based element: exact, up to the quadrature, for any EI(s), EA(s) and e(s);
     for a uniform member it equals :func:`cantilever_flexibility`.
     """
-    q = _profile_integrals(stations)
+    return _flexibility_of(_profile_integrals(stations), b, E, G)
+
+
+def _flexibility_of(q, b, E, G, scale=1.0):
+    """Tip flexibility (..., 3, 3) from the section integrals q (..., 7) of
+    :func:`_profile_integrals` (see :func:`profile_flexibility`), of the member stretched
+    ``scale`` times along its length (an integral of (L - s)^k ds grows as scale^(k + 1))."""
     b, E, G = (np.asarray(v, dtype=float) for v in (b, E, G))
     bending = 12.0 / (E * b)
     C = np.zeros(q.shape[:-1] + (3, 3))
-    C[..., 0, 0] = q[..., 0] / (E * b) + bending * q[..., 4]
-    C[..., 1, 1] = bending * q[..., 3] + SHEAR_FORM_FACTOR * q[..., 0] / (G * b)
-    C[..., 1, 2] = C[..., 2, 1] = bending * q[..., 2]
-    C[..., 2, 2] = bending * q[..., 1]
-    C[..., 0, 1] = C[..., 1, 0] = bending * q[..., 5]
-    C[..., 0, 2] = C[..., 2, 0] = bending * q[..., 6]
+    C[..., 0, 0] = scale * (q[..., 0] / (E * b) + bending * q[..., 4])
+    C[..., 1, 1] = bending * scale**3 * q[..., 3] + SHEAR_FORM_FACTOR * scale * q[..., 0] / (G * b)
+    C[..., 1, 2] = C[..., 2, 1] = bending * scale**2 * q[..., 2]
+    C[..., 2, 2] = bending * scale * q[..., 1]
+    C[..., 0, 1] = C[..., 1, 0] = bending * scale**2 * q[..., 5]
+    C[..., 0, 2] = C[..., 2, 0] = bending * scale * q[..., 6]
     return C
 
 
@@ -358,9 +364,9 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
 def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     """Tip flexibility (B, e, 3, 3) and bowing coefficients (B, e, 3) of the compliant
     members: uniform ones in closed form, those with a thickness profile (hinges with root
-    fillets) by :func:`profile_flexibility` and :func:`profile_bowing`, all of a batch in one
-    call. The profiles of one member stack across the batch; their stations are scaled to
-    the member's undeformed length."""
+    fillets) from the integrals of :func:`profile_flexibility` and :func:`profile_bowing`,
+    all of a batch in one call. The profiles of one member stack across the batch; their
+    stations are scaled to the member's undeformed length."""
     C = cantilever_flexibility(L0, t, b, E, G)
     bow = L0[..., None] * np.array([2.0, -1.0, 2.0]) / 30.0
     first = models[0].profile_mm
@@ -372,17 +378,7 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     # profile is integrated once, then scaled by each design's E, G and depth
     per = _profile_sections([m.profile_mm[k] for m in models for k in members]).reshape(len(models), len(members), _N_SECTION)
     scale = (L0[:, cols] / np.array([[m.profile_mm[k][-1, 0] for k in members] for m in models]))
-    inv_t, inv_t3, arm1, arm2, ecc2, ecc_arm, ecc = (per[..., i] for i in (0, 1, 2, 3, 7, 8, 9))
-    bE, bG = E * b[:, cols], G * b[:, cols]
-    bending = 12.0 / bE
-    Cp = np.zeros(C[:, cols].shape)
-    Cp[..., 0, 0] = scale * inv_t / bE + bending * scale * ecc2
-    Cp[..., 1, 1] = bending * scale**3 * arm2 + SHEAR_FORM_FACTOR * scale * inv_t / bG
-    Cp[..., 1, 2] = Cp[..., 2, 1] = bending * scale**2 * arm1
-    Cp[..., 2, 2] = bending * scale * inv_t3
-    Cp[..., 0, 1] = Cp[..., 1, 0] = bending * scale**2 * ecc_arm
-    Cp[..., 0, 2] = Cp[..., 2, 0] = bending * scale * ecc
-    C[:, cols] = Cp
+    C[:, cols] = _flexibility_of(per[..., [0, 1, 2, 3, 7, 8, 9]], b[:, cols], E, G, scale)
     bow[:, cols] = per[..., 4:7] * scale[..., None]
     return C, bow
 
