@@ -41,7 +41,7 @@ from geometry.params import Design, design_from_dict, design_to_dict
 from geometry.process import WATER_JET, Process
 from geometry.topology import build_beam_model
 from sensor.errors import DesignError, SolverError
-from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw
+from sensor.mechanics.hysteresis import DEFAULT_LAW, H_LIMIT, StrainEnergyLaw
 from sensor.mechanics.qualifiers import qualify
 from sensor.mechanics.solver import SolverOptions, solve_batch
 from sensor.mechanics.stress import hinge_stresses, stress_check
@@ -145,6 +145,12 @@ class DesignProblem:
     @property
     def n_angles(self) -> int:
         return 1 if self.body == "basis" else 2
+
+    @property
+    def log_se_limit(self) -> float:
+        """log of the strain energy (mJ) past which the hysteresis law leaves its domain
+        (:attr:`StrainEnergyLaw.max_strain_energy_mJ`; inf without hysteresis)."""
+        return math.log(self.law.max_strain_energy_mJ)
 
     @functools.cached_property
     def domain(self) -> "AngleDomain":
@@ -324,9 +330,15 @@ class _Local:
         obj = {"se": pt.log_se, "min_range": pt.log_range_error, "max_range": -pt.log_range_error}[self.objective]
         n = len(self.p.reference.used_hinges)
         util = np.array(pt.hinge_utilisation) if pt.hinge_utilisation else np.full(n, FAILED)
+        # the range ends' searches keep inside the hysteresis law's domain (with the stress's
+        # slack: SLSQP ends on an active constraint); the design search needs no such row: it
+        # minimises SE, so a range whose least SE is past the domain has no body in it
+        # (feasible() rejects it)
+        law = [] if self.objective == "se" else [
+            min(self.p.log_se_limit + math.log1p(-STRESS_SLACK) - pt.log_se, 1.0)]
         return np.concatenate([[obj, pt.log_range_error,
                                 pt.phi2_margin / 10.0 if math.isfinite(pt.phi2_margin) else 1.0],
-                               math.log1p(-STRESS_SLACK) - np.log(np.maximum(util, 1e-9))])
+                               law, math.log1p(-STRESS_SLACK) - np.log(np.maximum(util, 1e-9))])
 
     def at(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
@@ -361,9 +373,12 @@ class _Local:
 
 def feasible(problem: DesignProblem, pt: Point, slack: float = 0.0, in_range: bool = True) -> bool:
     """Whether a point keeps the range (within RANGE_TOLERANCE; unless not ``in_range``), the
-    stress (with ``slack``), the hinge bounds and every rule of
+    stress (with ``slack``), the hysteresis law's domain (H below
+    :data:`~sensor.mechanics.hysteresis.H_LIMIT`), the hinge bounds and every rule of
     :func:`geometry.checks.check_design`."""
     if not pt.ok or pt.utilisation > 1 - slack or (in_range and abs(pt.log_range_error) > math.log1p(RANGE_TOLERANCE)):
+        return False
+    if pt.log_se >= problem.log_se_limit:
         return False
     t = np.array(pt.design.used_thickness_mm)
     if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
@@ -469,13 +484,21 @@ def written(problem: DesignProblem, design: Design, name: str) -> Design:
     return design_from_dict(tomllib.loads(tomli_w.dumps({"design": design_to_dict(d)}))["design"])
 
 
+#: :func:`project`: the least d log(range) / d log(t) of the unsnapped hinges that carries
+#: the range back (every hinge together gives about 3, range ~ t^3; a group under a tenth of
+#: that would need steps ten times the range error), and the largest Newton step in log t.
+PROJECT_MIN_SLOPE = 0.3
+PROJECT_MAX_STEP = 0.1
+
+
 def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
     """Variables z snapped onto the hinge bounds they are within ``atol`` (in log t) of, the
     other hinges scaled together to bring the range back to the target (all hinges if every
-    one is at a bound, or if the others do not raise it: a group can barely move the range,
-    or even lower it, where its bending and its centroid's axial coupling balance; the
-    snapped hinges then leave their bounds, inwards or not at all); None when that cannot be
-    done inside the bounds."""
+    one is at a bound, or if the others raise the range less than :data:`PROJECT_MIN_SLOPE`:
+    a group can barely move the range, or even lower it, where its bending and its
+    centroid's axial coupling balance; the snapped hinges then leave their bounds, inwards
+    or not at all); None when that cannot be done inside the bounds. Newton steps on the
+    common log factor, each at most :data:`PROJECT_MAX_STEP`."""
     z = np.array(z, dtype=float)
     k = problem.n_angles
     lo, hi = problem.lower[k:], problem.upper[k:]
@@ -500,12 +523,12 @@ def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
         if not probe.ok:
             return None
         slope = (probe.log_range_error - err) / h
-        if not slope > 0 and not free.all():
+        if not slope > PROJECT_MIN_SLOPE and not free.all():
             free[:] = True
             continue
         if not slope > 0:
             return None
-        z[k:][free] -= err / slope
+        z[k:][free] -= np.clip(err / slope, -PROJECT_MAX_STEP, PROJECT_MAX_STEP)
     zt = z[k:]
     if (zt < lo - 1e-12).any() or (zt > hi + 1e-12).any():
         return None
@@ -514,8 +537,9 @@ def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
 
 def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
     """The final check of a written design: it solves, its range is the target within
-    RANGE_TOLERANCE, its stress utilisation is at most 1, its hinges are inside the bounds
-    and it keeps every feasibility rule. (ok, why not)."""
+    RANGE_TOLERANCE, its stress utilisation is at most 1, its predicted hysteresis is inside
+    the law's domain (below H_LIMIT), its hinges are inside the bounds and it keeps every
+    feasibility rule. (ok, why not)."""
     m, r = solve_designs([design], problem.travel_mm)[0]
     if m is None:
         return False, r
@@ -525,6 +549,9 @@ def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
     util = stress_check(design, m, r).utilisation
     if util > 1:
         return False, f"stress {util:.4f} x allowable"
+    h = qualify(r, problem.law).hysteresis
+    if not h < H_LIMIT:
+        return False, f"predicted hysteresis {h:.4f}: past the hysteresis law's domain (H < {H_LIMIT:g})"
     t = np.array(design.used_thickness_mm)
     if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
         return False, f"hinges {t.min():.4f}-{t.max():.4f} mm outside {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g}"

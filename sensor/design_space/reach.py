@@ -1,16 +1,18 @@
 """The reachable range of a design problem (DESIGN section 13): the smallest and the largest
 full-scale force of any feasible body of the problem's family (its body, angle domain, hinge
-groups and bounds, stress limit with the search's slack), so that ``dacm design`` says "no body
-reaches it" only for a range outside this interval, and names the interval.
+groups and bounds, stress limit with the search's slack, the hysteresis law's domain), so
+that ``dacm design`` says "no body reaches it" only for a range outside this interval, and
+names the interval.
 
 Each end is bracketed, then polished. A scan of the feasible angles every REACH_SCAN_STEP_DEG
-degrees, with every hinge at its lower bound (the softest bodies) and with equal hinges as thick
-as the bounds and the stress limit allow (the stiffest), finds each end's best bodies on the grid; from the REACH_POLISH best of each and
-from a Latin hypercube, the same SLSQP as the design search (:mod:`sensor.design_space.optimise`)
-minimises (maximises) log range subject to the stress utilisation <= 1 - STRESS_SLACK and the
-angle domain. The ends are the extremes of every feasible body seen, the scans included, so
-they are never inside a feasible body the grid holds (tests/design_space/test_optimise.py holds
-them against a dense scan of equal-hinge bodies at every thickness).
+degrees, with every hinge at its lower bound (the softest bodies) and with equal hinges as
+thick as the bounds and the stress limit allow (the stiffest), finds each end's best bodies on
+the grid; from the REACH_POLISH best of each and from a Latin hypercube, the same SLSQP as the
+design search (:mod:`sensor.design_space.optimise`) minimises (maximises) log range subject
+to the stress utilisation <= 1 - STRESS_SLACK, the hysteresis law's domain (H < H_LIMIT) and
+the angle domain. The ends are the extremes of every feasible body seen, the scans included,
+so they are never inside a feasible body the grid holds (tests/design_space/test_optimise.py
+holds them against a dense scan of equal-hinge bodies at every thickness).
 """
 
 from __future__ import annotations
@@ -28,10 +30,11 @@ from sensor.design_space.optimise import (
     evaluate,
     feasible,
 )
+from sensor.mechanics.hysteresis import H_LIMIT
 
 #: Angle step of the scans (deg), the best scanned bodies polished per end, the
 #: Latin-hypercube starts per end, and the passes that bring the stiffest scan's bodies to
-#: the stress limit.
+#: the stress limit and the hysteresis law's domain.
 REACH_SCAN_STEP_DEG, REACH_POLISH, REACH_STARTS, STRESS_PASSES = 1.0, 4, 4, 3
 
 
@@ -49,22 +52,29 @@ def softest_scan(problem: DesignProblem, angles: np.ndarray) -> list[Point]:
 
 
 def stiffest_scan(problem: DesignProblem, softest: list[Point]) -> list[Point]:
-    """At each angle of ``softest``, the body of equal hinges as thick as the bounds and the
-    stress limit allow. A hinge's bending stress at a given travel grows about as its
-    thickness, so the thickness starts at t_min (1 - 2 STRESS_SLACK) / utilisation(t_min),
-    within the bounds, and STRESS_PASSES passes of t -> t (1 - 2 STRESS_SLACK) / utilisation
-    correct it (a pass that makes a body fail is undone)."""
+    """At each angle of ``softest``, the body of equal hinges as thick as the bounds, the
+    stress limit and the hysteresis law's domain allow. A hinge's bending stress at a given
+    travel grows about as its thickness and the strain energy about as its cube, so the
+    thickness starts at what both allow from t_min (1 - 2 STRESS_SLACK of each limit), within
+    the bounds, and STRESS_PASSES passes of the same step correct it (a pass that makes a
+    body fail is undone)."""
     k = problem.n_angles
     lo, hi = problem.lower[k], problem.upper[k]
     target = np.log1p(-2 * STRESS_SLACK)
-    util = np.array([pt.utilisation if pt.ok else np.nan for pt in softest])
-    logt = np.where(np.isfinite(util), np.clip(lo + target - np.log(util), lo, hi), hi)
+
+    def thickest(logt, pts):  # log t each limit allows, from the bodies pts at log t
+        ok = np.array([pt.ok for pt in pts])
+        util = np.array([pt.utilisation if pt.ok else 1.0 for pt in pts])
+        se = np.array([pt.log_se if pt.ok else 0.0 for pt in pts])
+        step = np.minimum(target - np.log(util), (problem.log_se_limit + target - se) / 3.0)
+        return ok, np.clip(logt + step, lo, hi)
+
+    ok, logt = thickest(np.full(len(softest), lo), softest)
+    logt = np.where(ok, logt, hi)
     Z = np.hstack([np.array([pt.z[:k] for pt in softest]), np.repeat(logt[:, None], len(problem.pairs), axis=1)])
     pts = evaluate(problem, Z)
     for _ in range(STRESS_PASSES):
-        util = np.array([pt.utilisation for pt in pts])
-        ok = np.array([pt.ok for pt in pts])
-        new = np.clip(Z[:, k] + target - np.log(np.where(ok, util, 1.0)), lo, hi)
+        ok, new = thickest(Z[:, k], pts)
         move = ok & (np.abs(new - Z[:, k]) > 1e-4)
         if not move.any():
             break
@@ -123,5 +133,5 @@ def unreachable_message(problem: DesignProblem, reach: tuple[float, float]) -> s
     where = ("no body of the family is feasible at all" if not np.isfinite(lo) else
              f"the reachable interval is {lo:.4g} to {hi:.4g} N")
     return (f"range_N = {problem.range_N:g}: no {problem.body} body within the feasibility rules, "
-            f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable stress "
-            f"reaches it at {problem.travel_mm:g} mm travel; {where}")
+            f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable stress and "
+            f"H < {H_LIMIT:g} reaches it at {problem.travel_mm:g} mm travel; {where}")

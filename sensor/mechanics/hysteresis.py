@@ -9,6 +9,8 @@ proportion to the strain energy SE needed for the output travel (H / SE = 0.062,
 
 from __future__ import annotations
 
+import math
+
 import csv
 from dataclasses import dataclass
 from pathlib import Path
@@ -96,6 +98,13 @@ def hysteresis_from_csv(path: str | Path, input_column: str = "displacement_mm",
     return hysteresis(x, f)
 
 
+#: The largest hysteresis the strain-energy law is used for (fraction of full scale): the law
+#: is linear in SE, fitted on Table 6's specimens (H 0.036-0.135); past half the range a loop
+#: is no longer a small offset about the calibration curve, and the sensor model (its gap
+#: table, its calibration) refuses such a body.
+H_LIMIT = 0.5
+
+
 @dataclass(frozen=True)
 class StrainEnergyLaw:
     """H = h_per_mJ * SE (thesis section 6.2.5 hypothesis), calibrated on one specimen."""
@@ -109,6 +118,12 @@ class StrainEnergyLaw:
                 "without hysteresis)")
         require(isinstance(self.calibrated_on, str), "calibrated_on", self.calibrated_on,
                 "the name of the specimen the law was calibrated on")
+
+    @property
+    def max_strain_energy_mJ(self) -> float:
+        """The strain energy (mJ) at which the law predicts :data:`H_LIMIT` (inf without
+        hysteresis)."""
+        return H_LIMIT / self.h_per_mJ if self.h_per_mJ > 0 else math.inf
 
     def predict(self, strain_energy_mJ):
         """Predicted hysteresis (fraction of full scale) for a strain energy in mJ, in

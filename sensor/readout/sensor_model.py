@@ -41,7 +41,7 @@ from scipy.interpolate import CubicSpline, PchipInterpolator
 from geometry.params import Design
 from geometry.topology import build_beam_model
 from sensor.errors import SensorInputError, SensorRangeError
-from sensor.mechanics.hysteresis import DEFAULT_LAW, VIRGIN, StrainEnergyLaw, preisach_offsets
+from sensor.mechanics.hysteresis import DEFAULT_LAW, H_LIMIT, VIRGIN, StrainEnergyLaw, preisach_offsets
 from sensor.mechanics.qualifiers import qualify
 from sensor.mechanics.solver import SolverOptions, solve
 from sensor.readout.noise import READOUTS, noise_rms_V
@@ -330,8 +330,8 @@ def build_sensor(design: Design, optics: OpticsSetup = OpticsSetup(), readout: R
               options=SolverOptions(increments=increments))
     q = qualify(r, law)
     H = q.hysteresis
-    require(0 <= H < 0.5, "predicted hysteresis", H,
-             "in [0, 0.5) for this hysteresis model (a very high strain energy)")
+    require(0 <= H < H_LIMIT, "predicted hysteresis", H,
+             f"in [0, {H_LIMIT:g}) for this hysteresis model (a very high strain energy)")
     # Gap table: from (almost) touching to beyond rest, covering every hysteretic excursion.
     clearance = design.fiber_clearance_mm
     gaps = np.linspace(0.0, clearance + 2 * H * target_output_mm, GAP_TABLE_POINTS)

@@ -15,9 +15,11 @@ from sensor.design_space.optimise import (
     DesignProblem,
     _round_inward,
     accept,
+    describe,
     evaluate,
     feasible,
     optimise,
+    project,
     scale_to_range,
 )
 from sensor.design_space.reach import reachable_range
@@ -121,6 +123,40 @@ def test_materials_are_read_from_the_base():
 def test_bad_problems_name_the_field(kw, fragment):
     with pytest.raises(DesignError, match=fragment.replace("(", r"\(")):
         DesignProblem(**kw)
+
+
+def test_projection_out_of_reach_is_none_not_a_runaway_step():
+    """A basis body asked for 40 N (its reach ends near 7.5 N): an SLSQP end with three hinge
+    pairs at the upper bound and only pair 4-5 free, 40 % short of the range. That pair barely
+    moves the range (slope about 0 in log range per log t), so one Newton step on it alone
+    asked for a 5e8 mm hinge and `dacm design --range 40` stopped with a ParameterError; the
+    projection must answer None (no body of that range inside the bounds) and leave the
+    optimiser to report the range unreachable."""
+    p = DesignProblem(40.0, body="basis")
+    z = np.array([3.6293949, math.log(0.8), math.log(0.8), math.log(0.8), -0.8212270])
+    assert evaluate(p, z[None])[0].log_range_error < -0.4    # far below the range
+    assert project(p, z) is None
+    with pytest.raises(DesignError, match="range_N = 40: no basis body"):
+        optimise(p, n_starts=2)
+
+
+def test_a_range_past_the_hysteresis_laws_domain_is_out_of_reach():
+    """40 N at 1 mm: the stiffest bodies the stress allows store about 16 mJ, where the
+    strain-energy law would predict H near 1, past its domain (H_LIMIT = 0.5: 8.1 mJ with the
+    basis calibration). `dacm design --range 40` returned such a body and then stopped in the
+    sensor model. Now the range is out of reach, the message names the rule and the interval,
+    and the interval's top is a body the law and the sensor model accept."""
+    import re
+
+    from sensor.mechanics.hysteresis import H_LIMIT
+
+    with pytest.raises(DesignError, match=f"H < {H_LIMIT:g} reaches it") as err:
+        optimise(DesignProblem(40.0), n_starts=2)
+    top = float(re.search(r"reachable interval is [\d.]+ to ([\d.]+) N", str(err.value)).group(1))
+    assert 20.0 < top < 40.0
+    res = optimise(DesignProblem(round(0.98 * top, 2)), n_starts=2)
+    assert res.hysteresis < H_LIMIT
+    describe(res.design, res.problem)          # the sensor model accepts it
 
 
 def test_equal_hinge_groups_reduce_to_the_angles():
