@@ -27,7 +27,7 @@ def register(subparsers) -> None:
         description="Find the proposed DACM whose range (input force at the output travel) is "
                     "N within 1 %% and whose predicted hysteresis is lowest, subject to every "
                     "feasibility rule, the hinge bounds, the allowable hinge stress at full "
-                    "scale and the hysteresis law's domain (H < 0.5); phi1, phi2 and the thickness of each mirror-symmetric hinge pair vary "
+                    "scale and the hysteresis law's domain (H below 0.5, H_LIMIT); phi1, phi2 and the thickness of each mirror-symmetric hinge pair vary "
                     "(multi-start SLSQP with the range as an equality constraint). Prints it "
                     "beside the best basis body of the same range, with the tolerance report of "
                     "the parts cut from it, and writes OUT/design.toml (for --config), its "

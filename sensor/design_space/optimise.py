@@ -1,5 +1,6 @@
 """Range-targeted design (DESIGN section 13): the body of a given force range with the lowest
-predicted hysteresis, within every feasibility rule, the hinge bounds and the allowable stress.
+predicted hysteresis, within every feasibility rule, the hinge bounds, the allowable stress and
+the hysteresis law's domain (H < :data:`~sensor.mechanics.hysteresis.H_LIMIT`).
 
 Variables: phi1, phi2 (the proposed body; phi1 alone for the basis) and the log in-plane
 thickness of each group of hinges sharing one thickness (default the mirror-symmetric pairs of
@@ -12,6 +13,7 @@ Method: multi-start SLSQP (:func:`scipy.optimize.minimize`, method "SLSQP") on
     subject to  log(range / N) = 0                     (range: input force at the travel)
                 utilisation <= 1 - STRESS_SLACK         (peak hinge stress / allowable)
                 phi2 <= phi2 edge of the feasible angles (:class:`AngleDomain`)
+                H < H_LIMIT                             (the answer's; SE is minimised)
                 hinge_min <= t <= hinge_max             (bounds)
 
 with forward-difference gradients whose perturbed bodies are solved together in one batch
@@ -613,9 +615,9 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
         evaluations += extra
         if best is None:
             raise DesignError(f"range_N = {problem.range_N:g}: no {problem.body} body found within the feasibility "
-                              f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm and the allowable "
-                              f"stress; feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, but the nearest "
-                              f"found are at {gap[0]:.4g} and {gap[1]:.4g} N (the stress limit leaves a gap)")
+                              f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable "
+                              f"stress and H < {H_LIMIT:g}; feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, "
+                              f"but the nearest found are at {gap[0]:.4g} and {gap[1]:.4g} N (the limits leave a gap)")
     h, util, design = best
     return DesignResult(design, problem, h, util, reach, evaluations + counter[0], time.monotonic() - t0)
 

@@ -35,7 +35,7 @@ from sensor.mechanics.hysteresis import H_LIMIT
 #: Angle step of the scans (deg), the best scanned bodies polished per end, the
 #: Latin-hypercube starts per end, and the passes that bring the stiffest scan's bodies to
 #: the stress limit and the hysteresis law's domain.
-REACH_SCAN_STEP_DEG, REACH_POLISH, REACH_STARTS, STRESS_PASSES = 1.0, 4, 4, 3
+REACH_SCAN_STEP_DEG, REACH_POLISH, REACH_STARTS, LIMIT_PASSES = 1.0, 4, 4, 3
 
 
 def scan_angles(problem: DesignProblem) -> np.ndarray:
@@ -56,7 +56,7 @@ def stiffest_scan(problem: DesignProblem, softest: list[Point]) -> list[Point]:
     stress limit and the hysteresis law's domain allow. A hinge's bending stress at a given
     travel grows about as its thickness and the strain energy about as its cube, so the
     thickness starts at what both allow from t_min (1 - 2 STRESS_SLACK of each limit), within
-    the bounds, and STRESS_PASSES passes of the same step correct it (a pass that makes a
+    the bounds, and LIMIT_PASSES passes of the same step correct it (a pass that makes a
     body fail is undone)."""
     k = problem.n_angles
     lo, hi = problem.lower[k], problem.upper[k]
@@ -73,7 +73,7 @@ def stiffest_scan(problem: DesignProblem, softest: list[Point]) -> list[Point]:
     logt = np.where(ok, logt, hi)
     Z = np.hstack([np.array([pt.z[:k] for pt in softest]), np.repeat(logt[:, None], len(problem.pairs), axis=1)])
     pts = evaluate(problem, Z)
-    for _ in range(STRESS_PASSES):
+    for _ in range(LIMIT_PASSES):
         ok, new = thickest(Z[:, k], pts)
         move = ok & (np.abs(new - Z[:, k]) > 1e-4)
         if not move.any():
@@ -99,7 +99,7 @@ def _end_starts(problem: DesignProblem, corner: float, scan: list[Point]) -> np.
 
 def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False):
     """(smallest, largest) range (N) of the feasible bodies of the problem's family, within
-    the stress limit less STRESS_SLACK: the best feasible body each end's searches found
+    the stress limit less STRESS_SLACK and the hysteresis law's domain: the best feasible body each end's searches found
     (NaN, NaN if none); ``with_bodies``: also the feasible bodies the searches found whose
     range is nearest the problem's (a list, empty if none) and the nearest feasible ranges
     found below and above it. The feasible ranges need not be one interval: the stress limit

@@ -28,6 +28,7 @@ from geometry.params import Design
 from sensor.design_space.optimise import OBJECTIVE_SCALE, DesignProblem, written
 from sensor.design_space.scatter import as_cut
 from sensor.design_space.tolerance import DRAWS, Tolerance, draws_z, part_statistics, tolerance
+from sensor.mechanics.hysteresis import H_LIMIT
 
 STRESS_PROBABILITY, BAND, MIN_YIELD = 0.05, 0.10, 0.9
 #: The search cuts each candidate SEARCH_DRAWS times (the first of the report's deviates) and
@@ -153,6 +154,8 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
                    f"{problem.range_N:g} N")
     if tol.yield_fraction < min_yield:
         why.append(f"yield {100 * tol.yield_fraction:.1f} % < {100 * min_yield:g} %")
+    if not tol.hysteresis_fraction_p50 < H_LIMIT:
+        why.append(f"median H {tol.hysteresis_fraction_p50:.3f} past the hysteresis law's domain (< {H_LIMIT:g})")
     return RobustResult(d, tol, not why, "; ".join(why), time.monotonic() - t0)
 
 

@@ -9,9 +9,8 @@ proportion to the strain energy SE needed for the output travel (H / SE = 0.062,
 
 from __future__ import annotations
 
-import math
-
 import csv
+import math
 from dataclasses import dataclass
 from pathlib import Path
 

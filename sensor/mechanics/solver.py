@@ -364,7 +364,7 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
 def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     """Tip flexibility (B, e, 3, 3) and bowing coefficients (B, e, 3) of the compliant
     members: uniform ones in closed form, those with a thickness profile (hinges with root
-    fillets) from the integrals of :func:`profile_flexibility` and :func:`profile_bowing`,
+    fillets) from :func:`_profile_integrals` and :func:`profile_bowing`,
     all of a batch in one call. The profiles of one member stack across the batch; their
     stations are scaled to the member's undeformed length."""
     C = cantilever_flexibility(L0, t, b, E, G)
