@@ -551,8 +551,8 @@ def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
     util = stress_check(design, m, r).utilisation
     if util > 1:
         return False, f"stress {util:.4f} x allowable"
-    h = qualify(r, problem.law).hysteresis
-    if not h < H_LIMIT:
+    if not math.log(r.strain_energy_mJ) < problem.log_se_limit:   # the test of feasible()
+        h = qualify(r, problem.law).hysteresis
         return False, f"predicted hysteresis {h:.4f}: past the hysteresis law's domain (H < {H_LIMIT:g})"
     t = np.array(design.used_thickness_mm)
     if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
