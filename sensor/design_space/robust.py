@@ -4,6 +4,7 @@ median hysteresis of the parts cut from a drawing, subject to chance constraints
     P(peak stress > allowable) <= STRESS_PROBABILITY   (the 95th percentile of utilisation <= 1)
     range 5th percentile >= (1 - BAND) N and 95th percentile <= (1 + BAND) N
     yield >= min_yield                                  (every hinge >= min_feature_mm)
+    median H < H_LIMIT                                  (the hysteresis law's domain)
 
 over the draws of :func:`sensor.design_space.tolerance.draws_z` (common random numbers: every
 candidate is cut with the same deviates, so the percentiles are smooth in the drawing). The
@@ -25,7 +26,8 @@ from scipy.stats import norm
 from threadpoolctl import threadpool_limits
 
 from geometry.params import Design
-from sensor.design_space.optimise import OBJECTIVE_SCALE, DesignProblem, written
+from sensor.errors import DesignError
+from sensor.design_space.optimise import OBJECTIVE_SCALE, STRESS_SLACK, DesignProblem, solve_designs, written
 from sensor.design_space.scatter import as_cut
 from sensor.design_space.tolerance import DRAWS, Tolerance, draws_z, part_statistics, tolerance
 from sensor.mechanics.hysteresis import H_LIMIT
@@ -63,20 +65,24 @@ def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yiel
     log_yield = float(np.sum(norm.logcdf((t + pr.offset_mm - d.min_feature_mm) / pr.sd_mm)))
     margin = 1.0 if problem.body == "basis" else (problem.domain.phi2_edge(z[0]) - z[1]) / 10.0
     if ok.sum() < 0.5 * len(ok):
-        return np.array([10.0, -10.0, -10.0, -10.0, log_yield - math.log(min_yield), margin])
+        return np.array([10.0, -10.0, -10.0, -10.0, log_yield - math.log(min_yield), margin, -10.0])
     r = s["range_N"][ok]
     util = np.where(np.isfinite(s["utilisation"]), s["utilisation"], 10.0)
-    return np.array([math.log(np.median(s["hysteresis"][ok])),
+    log_h = math.log(np.median(s["hysteresis"][ok]))
+    return np.array([log_h,
                      -math.log(max(np.percentile(util, 100 * (1 - SEARCH_STRESS_PROBABILITY)), 1e-9)),
                      math.log(np.percentile(r, 5) / ((1 - band) * problem.range_N)),
                      math.log((1 + band) * problem.range_N / np.percentile(r, 95)),
-                     log_yield - math.log(min_yield), margin])
+                     log_yield - math.log(min_yield), margin,
+                     math.log(H_LIMIT) + math.log1p(-STRESS_SLACK) - log_h])
 
 
 def _violation(problem: DesignProblem, tol: Tolerance) -> float:
-    """The largest relative miss of the range band and the stress probability (<= 0: met)."""
+    """The largest relative miss of the range band, the stress probability and the median H
+    against the hysteresis law's domain (<= 0: met)."""
     lo, hi = (1 - BAND) * problem.range_N, (1 + BAND) * problem.range_N
-    return max(1 - tol.range_N_p5 / lo, tol.range_N_p95 / hi - 1, tol.p_over_stress - STRESS_PROBABILITY)
+    return max(1 - tol.range_N_p5 / lo, tol.range_N_p95 / hi - 1, tol.p_over_stress - STRESS_PROBABILITY,
+               tol.hysteresis_fraction_p50 / H_LIMIT - 1)
 
 
 def _centred(problem: DesignProblem, d: Design, tol: Tolerance, draws: int, seed: int, name: str):
@@ -102,6 +108,20 @@ def _centred(problem: DesignProblem, d: Design, tol: Tolerance, draws: int, seed
             break
         best = (miss, d1, t1)
     return best[1], best[2]
+
+
+def _check_domain(problem: DesignProblem, design: Design) -> None:
+    """Raise DesignError if the written robust design's own predicted hysteresis is past the
+    law's domain (its datasheet cannot be written): ranges near the top of the reach."""
+    model, r = solve_designs([design], problem.travel_mm)[0]
+    if model is None:
+        raise DesignError(f"range_N = {problem.range_N:g}: the robust drawing does not solve ({r})")
+    se = r.strain_energy_mJ
+    if not math.log(se) < problem.log_se_limit:
+        raise DesignError(f"range_N = {problem.range_N:g}: no robust design inside the hysteresis law's domain "
+                          f"(H < {H_LIMIT:g}): the search ended at a drawing whose strain energy is {se:.4g} mJ "
+                          f"(past {problem.law.max_strain_energy_mJ:.4g}); the nominal design is inside it "
+                          "(run without --robust)")
 
 
 def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: int = 0,
@@ -136,16 +156,18 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
                  method="SLSQP", bounds=[(0.0, 1.0)] * len(u0),
                  constraints=[{"type": "ineq", "fun": lambda u: at(u)[1:], "jac": lambda u: grad(u)[1:]}],
                  options={"maxiter": ITERATIONS, "ftol": 1e-8})
-    # the best point seen that keeps the constraints (else the least violating)
+    # the best point seen that keeps the constraints (else the least violating, inside the
+    # hysteresis law's domain where any point is)
     seen = [(np.frombuffer(k), v) for k, v in values.items()]
     good = [(v[0], u) for u, v in seen if v[1:].min() >= 0]
     if good:
         u = min(good, key=lambda g: g[0])[1]
     else:
-        u = max(seen, key=lambda s: s[1][1:].min())[0]
+        u = max(seen, key=lambda s: (s[1][-1] >= 0, s[1][1:].min()))[0]
     d = written(problem, problem.design(problem.from_unit(np.clip(u, 0, 1))), name)
     tol = tolerance(d, problem.process, draws, seed, problem.travel_mm, problem.law)
     d, tol = _centred(problem, d, tol, draws, seed, name)
+    _check_domain(problem, d)
     why = []
     if tol.p_over_stress > STRESS_PROBABILITY:
         why.append(f"P(stress > allowable) {100 * tol.p_over_stress:.1f} % > {100 * STRESS_PROBABILITY:g} %")

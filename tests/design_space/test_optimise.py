@@ -145,10 +145,13 @@ def test_a_range_past_the_hysteresis_laws_domain_is_out_of_reach():
     strain-energy law would predict H near 1, past its domain (H_LIMIT = 0.5: 8.1 mJ with the
     basis calibration). `dacm design --range 40` returned such a body and then stopped in the
     sensor model. Now the range is out of reach, the message names the rule and the interval,
-    and the interval's top is a body the law and the sensor model accept."""
+    and the interval's top is a body the law and the sensor model accept, as is the robust
+    design from it."""
     import re
 
     from sensor.mechanics.hysteresis import H_LIMIT
+
+    from sensor.design_space.robust import robust
 
     with pytest.raises(DesignError, match=f"H < {H_LIMIT:g} reaches it") as err:
         optimise(DesignProblem(40.0), n_starts=2)
@@ -157,6 +160,11 @@ def test_a_range_past_the_hysteresis_laws_domain_is_out_of_reach():
     res = optimise(DesignProblem(round(0.98 * top, 2)), n_starts=2)
     assert res.hysteresis < H_LIMIT
     describe(res.design, res.problem)          # the sensor model accepts it
+    # the robust search from it keeps to the domain too: `--robust` at 35 N stopped in the
+    # sensor model (its drawing's H was 0.66); its parts' median H and its own are inside
+    rob = robust(res.problem, res.design)
+    assert rob.tolerance.hysteresis_fraction_p50 < H_LIMIT
+    assert describe(rob.design, res.problem)["hysteresis"] < H_LIMIT
 
 
 def test_equal_hinge_groups_reduce_to_the_angles():
