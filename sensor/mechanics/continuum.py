@@ -252,6 +252,9 @@ def mesh_elements(dim: int) -> tuple[np.ndarray, np.ndarray]:
 
     tags, xyz, _ = gmsh.model.mesh.getNodes()
     etypes, _, enodes = gmsh.model.mesh.getElements(dim)
+    if _GMSH_SIMPLEX[dim] not in list(etypes):
+        raise SolverError(f"gmsh made no {('triangles', 'tetrahedra')[dim - 2]} of the model: its outline is "
+                          "degenerate (a zero-width spike or a self-touching edge)")
     cells = np.asarray(enodes[list(etypes).index(_GMSH_SIMPLEX[dim])], dtype=np.int64).reshape(-1, dim + 1)
     index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     index[tags.astype(np.int64)] = np.arange(len(tags))

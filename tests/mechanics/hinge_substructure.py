@@ -49,7 +49,10 @@ def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1]):
         return Polygon([s0 * u + v * w / 2, s1 * u + v * w / 2, s1 * u - v * w / 2, s0 * u - v * w / 2])
 
     (bw, bd), lw = BLOCK_MM, LINK_MM[0]
-    shape = unary_union([box(-bw / 2, -bd, bw / 2, 0.0), strip(-2 * t, neck_mm, t),
+    # the neck's strip runs 2 t into the block and t into the link (both cover it there):
+    # ending it on the link's edge left a zero-width spike in the union at some angles
+    # (gamma 20 deg), which gmsh could not mesh
+    shape = unary_union([box(-bw / 2, -bd, bw / 2, 0.0), strip(-2 * t, neck_mm + t, t),
                          strip(neck_mm, neck_mm + link_mm, lw)])
     if r > 0:  # closing: re-entrant corners rounded with r, convex ones kept sharp (mitred)
         shape = shape.buffer(r, join_style="mitre", mitre_limit=10.0).buffer(-r, quad_segs=48)

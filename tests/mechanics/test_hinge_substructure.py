@@ -99,3 +99,27 @@ def test_fillet_centroid_offset_gives_part_of_the_oblique_roots_coupling(fe):
             assert beam == 0.0 and abs(c[0, 2]) < 1e-6, (t, gamma, r, c[0, 2])
         else:
             assert 0.05 < beam / c[0, 2] < 0.8, (t, gamma, r, beam, c[0, 2])
+
+
+@pytest.mark.parametrize("r", [0.0, 0.4])
+def test_outline_has_no_zero_width_spike_at_any_lean(r):
+    """The substructure's outline at every lean of the table's faces (0-34 deg) and hinges
+    of 0.3-1.25 mm: no vertex where the outline turns back on itself (its two edges
+    anti-parallel). With the neck's strip ending on the link's edge, the union left one at
+    gamma 20 deg (t 0.3 mm, sharp), and gmsh made no triangles of it."""
+    from tests.mechanics.hinge_substructure import outline
+
+    for t in (0.3, 0.75, 1.25):
+        for gamma in np.arange(0.0, 34.5, 0.5):
+            xy = np.array(outline(t, NECK_MM, gamma, r).exterior.coords)[:-1]
+            e = np.roll(xy, -1, axis=0) - xy
+            e /= np.linalg.norm(e, axis=1)[:, None]
+            turn_back = np.einsum("ij,ij->i", e, np.roll(e, 1, axis=0))
+            assert turn_back.min() > -0.999, (t, gamma)
+
+
+def test_fe_reference_meshes_the_sharp_oblique_root():
+    """The case that gmsh could not mesh (t 0.3 mm, gamma 20 deg, sharp): its compliance is
+    symmetric positive definite (a reciprocal, stable elastic body)."""
+    c = fe_compliance(0.3, NECK_MM, 20.0, 0.0)
+    assert np.allclose(c, c.T, rtol=1e-6, atol=1e-9) and np.all(np.linalg.eigvalsh(c) > 0)
