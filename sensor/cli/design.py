@@ -43,7 +43,7 @@ def register(subparsers) -> None:
                    help="thickest hinge, mm (default 0.4 x the link width, 0.8)")
     p.add_argument("--robust", action="store_true",
                    help="also the robust design: lowest median H of the parts as cut with "
-                        "P(stress > allowable) <= 5 %%, range 5-95 %% band inside +-10 %% and --min-yield")
+                        "P(stress > allowable) <= 5 %%, range 5-95 %% band inside +-10 %%, --min-yield and median H < 0.5")
     p.add_argument("--min-yield", type=float, default=0.9, metavar="Y",
                    help="with --robust: least fraction of parts with every hinge >= min_feature_mm (default 0.9)")
     p.add_argument("--draws", type=int, default=200, metavar="N",
