@@ -222,6 +222,32 @@ def _rigid_linkage_amplification(design):
     return -sol[4]
 
 
+@pytest.mark.parametrize("phi1,phi2,t", [(22, None, 1.5), (32.3, None, 1.25), (22, 17.2, 1.4),
+                                         (32.8, 12.0, 0.8), (15, 40, 0.9), (28, 20, 1.0)])
+def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
+    """Each hinge's bar reaches past the face it joins only as far as it must to close the
+    notch there, (t / 2) tan(lean) + t / 4: what of it lies outside the plates, knees and
+    platform is the notch beside the neck (it touches the neck), never material out through
+    a body's far face. It reached 2 t: a 1.5 mm hinge on the 2 mm plates and knees came out
+    through their far faces (about 9.5 mm^2 of spikes on the profile; a 1.2 mm top hinge at
+    32.8 deg put the profile 0.34 mm above the footprint)."""
+    from shapely.geometry import Polygon
+    from shapely.ops import unary_union
+
+    from geometry.layout import bar
+
+    d = Design(phi1_deg=phi1, phi2_deg=phi2, hinge_set="custom", hinge_thickness_mm=(t,) * 12)
+    parts = make_parts(make_layout(d))
+    bodies = unary_union([Polygon(p.polygon) for p in parts if p.kind != "hinge"])
+    for p in (p for p in parts if p.kind == "hinge"):
+        neck = Polygon(bar(p.axis[0], p.axis[1], p.width))
+        root = Polygon(p.polygon).difference(neck)
+        outside = root.difference(bodies)
+        assert root.area > 0 and outside.area > 0, p.name      # it fills the acute notch
+        for piece in getattr(outside, "geoms", [outside]):
+            assert piece.area < 1e-9 or piece.distance(neck) < 1e-6, (p.name, piece.area)
+
+
 @pytest.mark.parametrize("phi1,phi2", [(22, 17.2), (21, 34), (15, 40), (30, 10)])
 def test_kinematic_amplification_from_rigid_body_virtual_displacement(phi1, phi2):
     d = make_design(phi1, phi2)
