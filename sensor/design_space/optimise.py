@@ -604,20 +604,22 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
     t0 = time.monotonic()
     counter = [0]
     U0 = starts(problem, n_starts, counter)
-    best, evaluations = _search(problem, U0, pool, name)
+    best, evaluations, _ = _search(problem, U0, pool, name)
     reach = (math.nan, math.nan)
     if best is None:
         reach, ends, gap = reachable_range(problem, pool, with_bodies=True)
         if not reach[0] * (1 - RANGE_TOLERANCE) <= problem.range_N <= reach[1] * (1 + RANGE_TOLERANCE):
             raise DesignError(unreachable_message(problem, reach))
         more = scale_to_range(problem, np.array([problem.variables(d) for d in ends]), counter=counter)
-        best, extra = _search(problem, np.clip(problem.to_unit(more), 0, 1), pool, name)
+        best, extra, rejected = _search(problem, np.clip(problem.to_unit(more), 0, 1), pool, name)
         evaluations += extra
         if best is None:
+            why = (f"the bodies found at the range fail the written design's check ({rejected[0]})" if rejected
+                   else f"the nearest found are at {gap[0]:.4g} and {gap[1]:.4g} N (the limits leave a gap)")
             raise DesignError(f"range_N = {problem.range_N:g}: no {problem.body} body found within the feasibility "
                               f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable "
                               f"stress and H < {H_LIMIT:g}; feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, "
-                              f"but the nearest found are at {gap[0]:.4g} and {gap[1]:.4g} N (the limits leave a gap)")
+                              f"but {why}")
     h, util, design = best
     return DesignResult(design, problem, h, util, reach, evaluations + counter[0], time.monotonic() - t0)
 
@@ -625,7 +627,7 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
 def _search(problem: DesignProblem, U0: np.ndarray, pool, name: str):
     """SLSQP from each start; the best of up to FINALISTS feasible candidates, each projected
     and written (:func:`project`, :func:`written`, :func:`accept`): ((H, utilisation,
-    design) or None, bodies evaluated)."""
+    design) or None, bodies evaluated, why :func:`accept` rejected the written ones)."""
     jobs = [(problem, u, "se") for u in U0]
     runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
     evaluations = sum(n for _, _, n in runs)
@@ -634,21 +636,26 @@ def _search(problem: DesignProblem, U0: np.ndarray, pool, name: str):
     candidates = sorted((pt for pt in seen if feasible(problem, pt)), key=lambda pt: pt.log_se)
     # ends just over the stress limit or off the range are projected too
     candidates += sorted((pt for pt in ends if pt.ok and pt.utilisation <= 1.01), key=lambda pt: pt.log_se)
-    finals = []
+    finals, rejected = [], []
     for pt in candidates[:4 * FINALISTS]:
         z = project(problem, pt.z)
         if z is None:
             continue
         d = written(problem, problem.design(z), name)
-        if not any(d == f for f in finals) and accept(problem, d)[0]:
+        if any(d == f for f in finals):
+            continue
+        ok, why = accept(problem, d)
+        if ok:
             finals.append(d)
+        else:
+            rejected.append(why)
         if len(finals) == FINALISTS:
             break
     if not finals:
-        return None, evaluations
+        return None, evaluations, rejected
     scored = [(qualify(r, problem.law).hysteresis, stress_check(d, m, r).utilisation, d)
               for d, (m, r) in zip(finals, solve_designs(finals, problem.travel_mm))]
-    return min(scored, key=lambda s: s[0]), evaluations
+    return min(scored, key=lambda s: s[0]), evaluations, rejected
 
 
 def describe(design: Design, problem: DesignProblem) -> dict:

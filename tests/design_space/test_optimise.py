@@ -140,6 +140,20 @@ def test_projection_out_of_reach_is_none_not_a_runaway_step():
         optimise(p, n_starts=2)
 
 
+def test_a_range_inside_the_reach_whose_bodies_fail_the_final_check_says_why(monkeypatch):
+    """When every body the search writes fails the final check (:func:`accept`: the CAD
+    profile, which the search's own rules do not build), the error names that check's
+    reason, not a gap in the reach (`--hinge-max 1.2` gave "the limits leave a gap" while
+    bodies at 4.996 and 5.017 N had been found: their thick roots put the profile outside
+    the footprint)."""
+    import sensor.design_space.optimise as optimise_module
+
+    reason = "profile spans x [-12.50, 12.50], y [0.00, 30.34] mm: outside the footprint 25 x 30 mm"
+    monkeypatch.setattr(optimise_module, "accept", lambda problem, design: (False, reason))
+    with pytest.raises(DesignError, match=r"fail the written design's check \(profile spans"):
+        optimise(DesignProblem(3.0), n_starts=2)
+
+
 def test_a_range_past_the_hysteresis_laws_domain_is_out_of_reach():
     """40 N at 1 mm: the stiffest bodies the stress allows store about 16 mJ, where the
     strain-energy law would predict H near 1, past its domain (H_LIMIT = 0.5: 8.1 mJ with the
