@@ -104,8 +104,8 @@ def test_nonlinear_solve_tends_to_the_linear_one_at_small_travel():
 
 def test_clamping_the_whole_base_plate_barely_moves_the_answer(sample_b):
     """Clamping the whole base plate instead of its bottom edge stiffens sample B by 0.9 %
-    at the default mesh (the basis by 2.5 %): it also clamps the base hinges' roots, which
-    reach 2 t into the plate. Stiffer, and by less than 1.5 %."""
+    at the default mesh (the basis by 2.5 %): it also clamps the material round the base
+    hinges' roots inside the plate. Stiffer, and by less than 1.5 %."""
     plate = verify(DESIGNS["sample-b"], mesh=QUICK, clamp="base plate")
     assert 1.0 < plate.k_out_N_per_mm / sample_b.k_out_N_per_mm < 1.015
 
