@@ -90,19 +90,15 @@ def _rect(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
 
 
-def bar(a: np.ndarray, b: np.ndarray, width: float, extend_a: float = 0.0,
-         extend_b: float = 0.0) -> np.ndarray:
-    """Rectangle of ``width`` around segment a-b, lengthened past a and b (into the bodies
-    the segment is rooted in, so the union has no notch)."""
+def bar(a: np.ndarray, b: np.ndarray, width: float) -> np.ndarray:
+    """Rectangle of ``width`` around segment a-b."""
     # Python-float arithmetic: a profile has about 30 bars and a sweep checks thousands of profiles
     (a0, a1), (b0, b1) = (float(a[0]), float(a[1])), (float(b[0]), float(b[1]))
     dx, dy = b0 - a0, b1 - a1
     length = math.hypot(dx, dy)
     ux, uy = dx / length, dy / length
     nx, ny = -uy * width / 2, ux * width / 2
-    ax, ay = a0 - ux * extend_a, a1 - uy * extend_a
-    bx, by = b0 + ux * extend_b, b1 + uy * extend_b
-    return np.array([[ax - nx, ay - ny], [bx - nx, by - ny], [bx + nx, by + ny], [ax + nx, ay + ny]])
+    return np.array([[a0 - nx, a1 - ny], [b0 - nx, b1 - ny], [b0 + nx, b1 + ny], [a0 + nx, a1 + ny]])
 
 
 def member_chain(a: np.ndarray, b: np.ndarray, hinge_length: float) -> np.ndarray:
@@ -161,23 +157,43 @@ def make_parts(lay: Layout) -> list[Part]:
     for name, (a, b), h1, h2 in side_members(lay):
         nodes = member_chain(a, b, lh)
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
-        lean = d.phi2_deg if "middle" in name else d.phi1_deg
-        parts.append(Part(f"hinge {h1}", "hinge", bar(nodes[0], nodes[1], t1, extend_a=root_overlap_mm(t1, lean)),
-                          h1, nodes[0:2], t1))
+        # the side links join the plates' and knees' horizontal faces, the middle links the
+        # knees' and platform's vertical side faces
+        normal = (1.0, 0.0) if "middle" in name else (0.0, 1.0)
+        parts.append(Part(f"hinge {h1}", "hinge", rooted_neck(nodes[0], nodes[1], t1, normal), h1, nodes[0:2], t1))
         parts.append(Part(f"{name} link", "link", bar(nodes[1], nodes[2], d.link_width_mm), 0,
                           nodes[1:3], d.link_width_mm))
-        parts.append(Part(f"hinge {h2}", "hinge", bar(nodes[2], nodes[3], t2, extend_b=root_overlap_mm(t2, lean)),
-                          h2, nodes[2:4], t2))
+        parts.append(Part(f"hinge {h2}", "hinge", rooted_neck(nodes[3], nodes[2], t2, normal), h2, nodes[2:4], t2))
     return parts
 
 
-def root_overlap_mm(t_mm: float, lean_deg: float) -> float:
-    """How far a hinge's bar reaches past the face of the body it joins (mm): a neck of
-    width t leaning ``lean_deg`` from the face's normal leaves it over (t / 2) tan(lean) on
-    its acute side, and reaches a quarter of t further so the union has no notch. Deeper
-    (it was 2 t) the bar of a thick hinge on a 2 mm plate came out through the plate's
-    other face (a 1.2 mm hinge at 32.8 deg: 0.34 mm past the footprint)."""
-    return t_mm * (0.5 * math.tan(math.radians(lean_deg)) + 0.25)
+#: How deep a hinge's root reaches into the body it joins, past the face, in neck widths.
+ROOT_OVERLAP_PER_THICKNESS = 0.25
+
+
+def rooted_neck(face: np.ndarray, end: np.ndarray, width: float, normal: tuple[float, float]) -> np.ndarray:
+    """The neck of ``width`` from the point ``face`` on a body's face (whose normal is along
+    ``normal``, either sign) to ``end``, with its root inside the body: on the acute side of
+    a leaning neck its edge is carried on to ROOT_OVERLAP_PER_THICKNESS x width deep (that
+    closes the notch the lean leaves there), on the obtuse side it stops where it meets the
+    face. So the root reaches along the face no further than the neck's own footprint, and
+    no deeper than that (a bar 2 width long came out through the far faces of the 2 mm
+    plates and knees under thick hinges). Convex, counter-clockwise, mm."""
+    (f0, f1), (e0, e1) = (float(face[0]), float(face[1])), (float(end[0]), float(end[1]))
+    length = math.hypot(e0 - f0, e1 - f1)
+    wx, wy = (e0 - f0) / length, (e1 - f1) / length             # out of the body, along the neck
+    vx, vy = -wy * width / 2, wx * width / 2                     # half the width, to the left
+    sign = math.copysign(1.0, normal[0] * wx + normal[1] * wy)
+    mx, my = sign * normal[0], sign * normal[1]                  # the face's outward normal
+    along, lean, depth = wx * mx + wy * my, vx * mx + vy * my, ROOT_OVERLAP_PER_THICKNESS * width
+
+    def root(side: float) -> list[float]:
+        """The root's corner on one side (-1: right, 1: left): its edge carried on to
+        `depth` inside the face (acute side, or a square neck) or to the face (obtuse)."""
+        s = (-(depth if side * lean >= 0 else 0.0) - side * lean) / along
+        return [f0 + s * wx + side * vx, f1 + s * wy + side * vy]
+
+    return np.array([root(-1.0), [e0 - vx, e1 - vy], [e0 + vx, e1 + vy], root(1.0)])
 
 
 def kinematic_amplification(phi1_deg: float, phi2_deg: float | None) -> float:

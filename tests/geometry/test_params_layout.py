@@ -223,14 +223,20 @@ def _rigid_linkage_amplification(design):
 
 
 @pytest.mark.parametrize("phi1,phi2,t", [(22, None, 1.5), (32.3, None, 1.25), (22, 17.2, 1.4),
-                                         (32.8, 12.0, 0.8), (15, 40, 0.9), (28, 20, 1.0)])
+                                         (32.8, 12.0, 0.8), (15, 40, 0.9), (28, 20, 1.0),
+                                         pytest.param(20, 45, 1.2, marks=pytest.mark.xfail(strict=True, reason=(
+                                             "disagrees: a 1.2 mm middle hinge at 45 deg covers 1.7 of the knee's "
+                                             "2 mm side face; its root's acute corner, t/4 deep, lies 0.30 mm past "
+                                             "the face's end, below the knee")))])
 def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
-    """Each hinge's bar reaches past the face it joins only as far as it must to close the
-    notch there, (t / 2) tan(lean) + t / 4: what of it lies outside the plates, knees and
-    platform is the notch beside the neck (it touches the neck), never material out through
-    a body's far face. It reached 2 t: a 1.5 mm hinge on the 2 mm plates and knees came out
-    through their far faces (about 9.5 mm^2 of spikes on the profile; a 1.2 mm top hinge at
-    32.8 deg put the profile 0.34 mm above the footprint)."""
+    """Each hinge's root reaches into the body it joins t / 4 deep on the acute side of the
+    neck and to the face on the obtuse side: what of it lies outside the plates, knees and platform is the acute notch beside
+    the neck, on the link's side of the face (within 1e-9 mm), never material out through a
+    body's far or side face. A bar reaching 2 t along the neck came out through the far faces
+    of the 2 mm plates and knees under thick hinges (about 9.5 mm^2 of spikes on a 1.5 mm
+    basis body; a 1.2 mm top hinge at 32.8 deg put the profile 0.34 mm above the
+    footprint). Left (the expected failure): where the neck's own footprint nearly fills the
+    face, the acute corner passes the face's end (it does not know the face's extent)."""
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
@@ -242,10 +248,16 @@ def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
     for p in (p for p in parts if p.kind == "hinge"):
         neck = Polygon(bar(p.axis[0], p.axis[1], p.width))
         root = Polygon(p.polygon).difference(neck)
+        # the point on the face (each member's first hinge starts there, its second ends
+        # there; geometry.layout.side_members) and the face's outward normal
+        face, end = (p.axis[0], p.axis[1]) if p.hinge % 2 else (p.axis[1], p.axis[0])
+        normal = np.array([1.0, 0.0]) if p.hinge >= 9 else np.array([0.0, 1.0])
+        normal = normal * np.sign(normal @ (end - face))
         outside = root.difference(bodies)
         assert root.area > 0 and outside.area > 0, p.name      # it fills the acute notch
-        for piece in getattr(outside, "geoms", [outside]):
-            assert piece.area < 1e-9 or piece.distance(neck) < 1e-6, (p.name, piece.area)
+        corners = np.array([c for piece in getattr(outside, "geoms", [outside]) if piece.area > 1e-12
+                            for c in piece.exterior.coords])
+        assert np.min((corners - face) @ normal) > -1e-9, p.name
 
 
 @pytest.mark.parametrize("phi1,phi2", [(22, 17.2), (21, 34), (15, 40), (30, 10)])
