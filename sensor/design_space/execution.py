@@ -86,8 +86,9 @@ def run_sweep(spec: SweepSpec, version: str, dataset_path: Path | None = None, r
     try:
         with contextlib.closing(_execute(spec, todo, workers, scheduler, cluster_timeout_s)) as rows:
             for row in rows:
-                merge_row(ds, row)
-                done += int(row["computed"].sum())
+                with _signals_held():    # a stop lands between rows: the count is the checkpoint's
+                    merge_row(ds, row)
+                    done += int(row["computed"].sum())
                 if progress is not None:
                     progress.advance(int(row["computed"].sum()))
                 if dataset_path is not None and time.monotonic() - last > interval:
@@ -118,6 +119,26 @@ def check_run_options(workers: int = 0, scheduler: str | None = None,
     if scheduler is not None and not (isinstance(scheduler, str) and _ADDRESS.fullmatch(scheduler)):
         raise SweepError(f"--scheduler = {scheduler!r}: must be a Dask scheduler address "
                          "protocol://host[:port] or host:port, e.g. tcp://10.0.0.5:8786")
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Hold SIGINT and SIGTERM for the block (main thread only): one that arrives is raised
+    when it ends, so a row is merged and counted whole (a stop between the two had the
+    message count 200 cells fewer than the checkpoint held)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    handlers = {s: signal.signal(s, lambda signum, frame: caught.append(signum))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in handlers.items():
+            signal.signal(s, h)
+        if caught:
+            signal.raise_signal(caught[0])
 
 
 def _save_checkpoint(ds: xr.Dataset, path: Path | None, done: int) -> str:
