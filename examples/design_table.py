@@ -32,13 +32,19 @@ def answers(range_N: float, body: str, pool) -> dict:
         nominal = optimise(p, pool, name=f"{body}-{range_N:g}N")
     except DesignError as exc:
         return {"error": str(exc)}
-    rob = robust(p, nominal.design, name=f"{body}-{range_N:g}N-robust")
-    return {"nominal": {"hysteresis": nominal.hysteresis, "seconds": nominal.seconds,
-                        "design": nominal.design.name, "angles": _angles(nominal.design),
-                        "hinges_mm": list(nominal.design.used_thickness_mm),
-                        "tolerance": tolerance(nominal.design).to_dict()},
+    try:
+        rob = robust(p, nominal.design, name=f"{body}-{range_N:g}N-robust")
+    except DesignError as exc:   # the robust drawing left the hysteresis law's domain
+        return {"nominal": _nominal(nominal), "robust_error": str(exc)}
+    return {"nominal": _nominal(nominal),
             "robust": {"met": rob.met, "why": rob.why, "seconds": rob.seconds, "angles": _angles(rob.design),
                        "hinges_mm": list(rob.design.used_thickness_mm), "tolerance": rob.tolerance.to_dict()}}
+
+
+def _nominal(nominal) -> dict:
+    return {"hysteresis": nominal.hysteresis, "seconds": nominal.seconds, "design": nominal.design.name,
+            "angles": _angles(nominal.design), "hinges_mm": list(nominal.design.used_thickness_mm),
+            "tolerance": tolerance(nominal.design).to_dict()}
 
 
 def _angles(d) -> str:
@@ -59,7 +65,10 @@ def table(results: dict) -> str:
             if "error" in a:
                 lines.append(f"| {r:g} N | {body} | no body: {a['error'].split('; ')[-1]} | |")
                 continue
-            rob = _cell(a["robust"]) + ("" if a["robust"]["met"] else f" (not met: {a['robust']['why']})")
+            if "robust_error" in a:
+                rob = f"none: {a['robust_error']}"
+            else:
+                rob = _cell(a["robust"]) + ("" if a["robust"]["met"] else f" (not met: {a['robust']['why']})")
             lines.append(f"| {r:g} N | {body} | {_cell(a['nominal'])} | {rob} |")
     return "\n".join(lines)
 

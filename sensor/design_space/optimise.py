@@ -604,14 +604,15 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
     t0 = time.monotonic()
     counter = [0]
     U0 = starts(problem, n_starts, counter)
-    best, evaluations, _ = _search(problem, U0, pool, name)
+    best, evaluations, rejected = _search(problem, U0, pool, name)
     reach = (math.nan, math.nan)
     if best is None:
         reach, ends, gap = reachable_range(problem, pool, with_bodies=True)
         if not reach[0] * (1 - RANGE_TOLERANCE) <= problem.range_N <= reach[1] * (1 + RANGE_TOLERANCE):
             raise DesignError(unreachable_message(problem, reach))
         more = scale_to_range(problem, np.array([problem.variables(d) for d in ends]), counter=counter)
-        best, extra, rejected = _search(problem, np.clip(problem.to_unit(more), 0, 1), pool, name)
+        best, extra, rejected_near = _search(problem, np.clip(problem.to_unit(more), 0, 1), pool, name)
+        rejected = rejected_near or rejected
         evaluations += extra
         if best is None:
             why = (f"the bodies found at the range fail the written design's check ({rejected[0]})" if rejected

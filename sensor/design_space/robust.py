@@ -74,7 +74,7 @@ def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yiel
                      math.log(np.percentile(r, 5) / ((1 - band) * problem.range_N)),
                      math.log((1 + band) * problem.range_N / np.percentile(r, 95)),
                      log_yield - math.log(min_yield), margin,
-                     math.log(H_LIMIT) + math.log1p(-STRESS_SLACK) - log_h])
+                     math.log(H_LIMIT) + math.log1p(-STRESS_SLACK) - log_h])   # the optimiser's margin
 
 
 def _violation(problem: DesignProblem, tol: Tolerance) -> float:
@@ -128,7 +128,8 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
            min_yield: float = MIN_YIELD, name: str = "robust") -> RobustResult:
     """The robust design of ``problem`` from the nominal answer ``nominal``; ``met`` says
     whether the written design keeps every chance constraint on its tolerance report (and
-    ``why`` not)."""
+    ``why`` not). Raises DesignError if the drawing it ends at is itself past the
+    hysteresis law's domain (no datasheet can be written for it)."""
     t0 = time.monotonic()
     zd = draws_z(draws, seed)[:SEARCH_DRAWS]
     values: dict[bytes, np.ndarray] = {}
