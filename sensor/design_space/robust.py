@@ -26,10 +26,10 @@ from scipy.stats import norm
 from threadpoolctl import threadpool_limits
 
 from geometry.params import Design
-from sensor.errors import DesignError
 from sensor.design_space.optimise import OBJECTIVE_SCALE, STRESS_SLACK, DesignProblem, solve_designs, written
 from sensor.design_space.scatter import as_cut
 from sensor.design_space.tolerance import DRAWS, Tolerance, draws_z, part_statistics, tolerance
+from sensor.errors import DesignError
 from sensor.mechanics.hysteresis import H_LIMIT
 
 STRESS_PROBABILITY, BAND, MIN_YIELD = 0.05, 0.10, 0.9
