@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -110,18 +111,54 @@ def member_chain(a: np.ndarray, b: np.ndarray, hinge_length: float) -> np.ndarra
                      (b0 - ux * hinge_length, b1 - uy * hinge_length), (b0, b1)])
 
 
-def side_members(lay: Layout) -> list[tuple[str, np.ndarray, int, int]]:
-    """The hinge-link-hinge members: (name, end points (2, 2), first hinge, second hinge).
+class Face(NamedTuple):
+    """The face of a body that a hinge joins: its normal (a unit axis, either sign), where it
+    runs (``span``: its first and last coordinate along the face, mm; infinite for the
+    plates, whose faces are long) and the body's depth behind it, mm."""
 
-    Order and hinge numbers follow the loop numbering of :mod:`geometry.params`.
-    """
-    m = [("left lower", np.array([lay.P0, lay.P1]), 1, 2),
-         ("left upper", np.array([lay.P2, lay.P3]), 3, 4),
-         ("right upper", np.array([_mirror(lay.P3), _mirror(lay.P2)]), 5, 6),
-         ("right lower", np.array([_mirror(lay.P1), _mirror(lay.P0)]), 7, 8)]
-    if not lay.design.is_basis:
-        m += [("left middle", np.array([lay.K, lay.Q]), 9, 10),
-              ("right middle", np.array([_mirror(lay.Q), _mirror(lay.K)]), 11, 12)]
+    normal: tuple[float, float]
+    span: tuple[float, float]
+    depth: float
+
+    @property
+    def across(self) -> float:
+        """The face's length, mm."""
+        return self.span[1] - self.span[0]
+
+
+class SideMember(NamedTuple):
+    """A hinge-link-hinge member: its name, end points (2, 2) on the faces of the bodies it
+    joins, its hinge numbers, the faces (one per end) and its lean from their normals, deg
+    (phi1 for the side links, whose faces are the plates' and knees' horizontal ones; phi2
+    for the middle links, on the knees' and platform's vertical side faces)."""
+
+    name: str
+    ends: np.ndarray
+    hinges: tuple[int, int]
+    faces: tuple[Face, Face]
+    lean_deg: float
+
+
+def side_members(lay: Layout) -> list[SideMember]:
+    """The hinge-link-hinge members, in the order and with the hinge numbers of the loop
+    numbering of :mod:`geometry.params`."""
+    d = lay.design
+    up, side = (0.0, 1.0), (1.0, 0.0)
+    plate = Face(up, (-math.inf, math.inf), d.plate_thickness_mm)
+    knee_x = (-d.width_mm / 2, -d.width_mm / 2 + d.knee_width_mm)
+    knee = Face(up, knee_x, d.knee_height_mm)                  # a knee's bottom or top face
+    knee_r = Face(up, (-knee_x[1], -knee_x[0]), d.knee_height_mm)
+    m = [SideMember("left lower", np.array([lay.P0, lay.P1]), (1, 2), (plate, knee), d.phi1_deg),
+         SideMember("left upper", np.array([lay.P2, lay.P3]), (3, 4), (knee, plate), d.phi1_deg),
+         SideMember("right upper", np.array([_mirror(lay.P3), _mirror(lay.P2)]), (5, 6), (plate, knee_r), d.phi1_deg),
+         SideMember("right lower", np.array([_mirror(lay.P1), _mirror(lay.P0)]), (7, 8), (knee_r, plate), d.phi1_deg)]
+    if not d.is_basis:
+        knee_side = Face(side, (float(lay.P1[1]), float(lay.P2[1])), d.knee_width_mm)   # a knee's inner face
+        y0 = float(lay.output_point[1])
+        platform = Face(side, (y0, y0 + d.platform_thickness_mm), d.platform_width_mm / 2)
+        m += [SideMember("left middle", np.array([lay.K, lay.Q]), (9, 10), (knee_side, platform), d.phi2_deg),
+              SideMember("right middle", np.array([_mirror(lay.Q), _mirror(lay.K)]), (11, 12),
+                         (platform, knee_side), d.phi2_deg)]
     return m
 
 
@@ -154,16 +191,14 @@ def make_parts(lay: Layout) -> list[Part]:
                   Part("platform right", "platform", _rect(0.0, y0, half, y0 + d.platform_thickness_mm), 0,
                        np.array([[0.0, ym], [half, ym]]), d.platform_thickness_mm)]
     lh = d.hinge_length_mm
-    for name, (a, b), h1, h2 in side_members(lay):
-        nodes = member_chain(a, b, lh)
+    for m in side_members(lay):
+        nodes = member_chain(m.ends[0], m.ends[1], lh)
+        (h1, h2), (face1, face2) = m.hinges, m.faces
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
-        # the side links join the plates' and knees' horizontal faces, the middle links the
-        # knees' and platform's vertical side faces
-        normal = (1.0, 0.0) if "middle" in name else (0.0, 1.0)
-        parts.append(Part(f"hinge {h1}", "hinge", rooted_neck(nodes[0], nodes[1], t1, normal), h1, nodes[0:2], t1))
-        parts.append(Part(f"{name} link", "link", bar(nodes[1], nodes[2], d.link_width_mm), 0,
+        parts.append(Part(f"hinge {h1}", "hinge", rooted_neck(nodes[0], nodes[1], t1, face1), h1, nodes[0:2], t1))
+        parts.append(Part(f"{m.name} link", "link", bar(nodes[1], nodes[2], d.link_width_mm), 0,
                           nodes[1:3], d.link_width_mm))
-        parts.append(Part(f"hinge {h2}", "hinge", rooted_neck(nodes[3], nodes[2], t2, normal), h2, nodes[2:4], t2))
+        parts.append(Part(f"hinge {h2}", "hinge", rooted_neck(nodes[3], nodes[2], t2, face2), h2, nodes[2:4], t2))
     return parts
 
 
@@ -171,26 +206,34 @@ def make_parts(lay: Layout) -> list[Part]:
 ROOT_OVERLAP_PER_THICKNESS = 0.25
 
 
-def rooted_neck(face: np.ndarray, end: np.ndarray, width: float, normal: tuple[float, float]) -> np.ndarray:
-    """The neck of ``width`` from the point ``face`` on a body's face (whose normal is along
-    ``normal``, either sign) to ``end``, with its root inside the body: on the acute side of
-    a leaning neck its edge is carried on to ROOT_OVERLAP_PER_THICKNESS x width deep (that
-    closes the notch the lean leaves there), on the obtuse side it stops where it meets the
-    face. So the root reaches along the face no further than the neck's own footprint, and
-    no deeper than that (a bar 2 width long came out through the far faces of the 2 mm
-    plates and knees under thick hinges). Convex, counter-clockwise, mm."""
-    (f0, f1), (e0, e1) = (float(face[0]), float(face[1])), (float(end[0]), float(end[1]))
+def rooted_neck(point: np.ndarray, end: np.ndarray, width: float, face: Face) -> np.ndarray:
+    """The neck of ``width`` from ``point`` on a body's ``face`` to ``end``, with its root
+    inside the body: on the acute side of a leaning neck its edge is carried on to
+    ROOT_OVERLAP_PER_THICKNESS x width deep (that closes the notch the lean leaves there),
+    but not past the face's end; on the obtuse side it stops where it meets the face. So the
+    root reaches along the face no further than the neck's own footprint, and no deeper
+    than that (a bar 2 width long came out through the far faces of the 2 mm plates and
+    knees under thick hinges). Convex, counter-clockwise, mm."""
+    (f0, f1), (e0, e1) = (float(point[0]), float(point[1])), (float(end[0]), float(end[1]))
     length = math.hypot(e0 - f0, e1 - f1)
     wx, wy = (e0 - f0) / length, (e1 - f1) / length             # out of the body, along the neck
     vx, vy = -wy * width / 2, wx * width / 2                     # half the width, to the left
-    sign = math.copysign(1.0, normal[0] * wx + normal[1] * wy)
-    mx, my = sign * normal[0], sign * normal[1]                  # the face's outward normal
+    sign = math.copysign(1.0, face.normal[0] * wx + face.normal[1] * wy)
+    mx, my = sign * face.normal[0], sign * face.normal[1]        # the face's outward normal
+    tx, ty = face.normal[1], face.normal[0]                      # along the face (span's axis)
     along, lean, depth = wx * mx + wy * my, vx * mx + vy * my, ROOT_OVERLAP_PER_THICKNESS * width
+    (lo, hi), slide = face.span, wx * tx + wy * ty              # slide: along the face per unit s
 
     def root(side: float) -> list[float]:
         """The root's corner on one side (-1: right, 1: left): its edge carried on to
-        `depth` inside the face (acute side, or a square neck) or to the face (obtuse)."""
+        `depth` inside the face (acute side, or a square neck) or to the face (obtuse),
+        and back to the face's end if it would pass it."""
+        at_face = -side * lean / along
         s = (-(depth if side * lean >= 0 else 0.0) - side * lean) / along
+        if slide:
+            c = (f0 + s * wx + side * vx) * tx + (f1 + s * wy + side * vy) * ty
+            end_s = s + (min(max(c, lo), hi) - c) / slide
+            s = min(max(s, end_s), at_face)
         return [f0 + s * wx + side * vx, f1 + s * wy + side * vy]
 
     return np.array([root(-1.0), [e0 - vx, e1 - vy], [e0 + vx, e1 + vy], root(1.0)])

@@ -267,21 +267,6 @@ def root_radius_mm(design: Design) -> float:
     return max(design.kerf_mm / 2.0, design.root_radius_mm)
 
 
-def _root_bodies(d: Design, member: str) -> tuple[tuple[float, float], tuple[float, float]]:
-    """The faces a side member's two hinges start from and end on: per end (the face's
-    length across the neck, the body's depth behind it), mm (see geometry.layout). The base
-    plate's and top plate's faces are long; the knees' and platform's are not."""
-    plate = (math.inf, d.plate_thickness_mm)
-    knee_below = (d.knee_width_mm, d.knee_height_mm)      # a knee's bottom or top face
-    knee_side = (d.knee_height_mm, d.knee_width_mm)       # a knee's inner face
-    platform = (d.platform_thickness_mm, d.platform_width_mm / 2)
-    return {"left lower": (plate, knee_below), "right lower": (knee_below, plate),
-            "left upper": (knee_below, plate), "right upper": (plate, knee_below),
-            "left middle": (knee_side, platform), "right middle": (platform, knee_side)}[member]
-
-
-
-
 def build_beam_model(design: Design, layout: Layout | None = None, input_guided: bool = True) -> BeamModel:
     """The beam model of the part as cut (``design.kerf_mm``; 0: the drawing), hinges
     numbered as in Figure 48 (see geometry.params).
@@ -318,17 +303,15 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     # every hinge: its thickness profile between its face on a body and its face on a link
     r = root_radius_mm(d)
     profiles, body_depth = {}, {}  # hinge -> hinge_profile(...), its root depth into the body
-    for name, _, h1, h2 in side_members(lay):
+    for sm in side_members(lay):
+        (h1, h2), (face1, face2), lean = sm.hinges, sm.faces, sm.lean_deg
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
-        # the side links lean phi1 from the normals of the plates' and knees' faces, the
-        # middle links rise phi2 from the normals of the knees' and platform's side faces;
-        # a link's own end face is square to it
-        lean = d.phi2_deg if "middle" in name else d.phi1_deg
-        (face1, deep1), (face2, deep2) = _root_bodies(d, name)
-        ends1 = ((r, (face1 - t1 / math.cos(math.radians(lean))) / 2, lean, deep1),
+        # each hinge leans from its body face's normal (geometry.layout.SideMember); a link's
+        # own end face is square to it
+        ends1 = ((r, (face1.across - t1 / math.cos(math.radians(lean))) / 2, lean, face1.depth),
                  (r, (d.link_width_mm - t1) / 2, 0.0, d.link_width_mm))
         ends2 = ((r, (d.link_width_mm - t2) / 2, 0.0, d.link_width_mm),
-                 (r, (face2 - t2 / math.cos(math.radians(lean))) / 2, lean, deep2))
+                 (r, (face2.across - t2 / math.cos(math.radians(lean))) / 2, lean, face2.depth))
         profiles[h1] = p1 = hinge_profile(t1, d.hinge_length_mm, ends1)
         profiles[h2] = p2 = hinge_profile(t2, d.hinge_length_mm, ends2)
         body_depth[h1] = p1[3]                                   # the body is at the start of h1
@@ -375,7 +358,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
 
     lh = d.hinge_length_mm
     shape: dict[int, tuple] = {}  # member index -> (profile, neck stations, root radii)
-    for name, (a, b), h1, h2 in side_members(lay):
+    for sm in side_members(lay):
+        (h1, h2), (a, b), name = sm.hinges, sm.ends, sm.name
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         (ax, ay), (bx, by) = a.tolist(), b.tolist()
         length = math.hypot(bx - ax, by - ay)
@@ -397,7 +381,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         # of that lean, signed by the side of the member (left: +) the start body's outward
         # face normal tilts towards: the acute corner is on the other side there (and, the
         # end body's normal pointing back along the member, on that side at the end)
-        c = -math.copysign(1.0, ux) * uy if "middle" in name else math.copysign(1.0, uy) * ux
+        nx, ny = sm.faces[0].normal
+        c = -math.copysign(1.0, nx * ux + ny * uy) * (nx * uy - ny * ux)
         # (the link ends are square: both fillets at the neck's end)
         shape[len(members) + 1] = (_centroid_left(p1, c < 0), neck1, (r, r), (_left_right(fil1[0], c < 0), fil1[1]))
         shape[len(members) + 3] = (_centroid_left(p2, c > 0), neck2, (r, r), (fil2[0], _left_right(fil2[1], c > 0)))

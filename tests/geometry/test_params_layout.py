@@ -223,11 +223,7 @@ def _rigid_linkage_amplification(design):
 
 
 @pytest.mark.parametrize("phi1,phi2,t", [(22, None, 1.5), (32.3, None, 1.25), (22, 17.2, 1.4),
-                                         (32.8, 12.0, 0.8), (15, 40, 0.9), (28, 20, 1.0),
-                                         pytest.param(20, 45, 1.2, marks=pytest.mark.xfail(strict=True, reason=(
-                                             "disagrees: a 1.2 mm middle hinge at 45 deg covers 1.7 of the knee's "
-                                             "2 mm side face; its root's acute corner, t/4 deep, lies 0.30 mm past "
-                                             "the face's end, below the knee")))])
+                                         (32.8, 12.0, 0.8), (15, 40, 0.9), (28, 20, 1.0), (20, 45, 1.2)])
 def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
     """Each hinge's root reaches into the body it joins t / 4 deep on the acute side of the
     neck and to the face on the obtuse side: what of it lies outside the plates, knees and platform is the acute notch beside
@@ -235,8 +231,9 @@ def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
     body's far or side face. A bar reaching 2 t along the neck came out through the far faces
     of the 2 mm plates and knees under thick hinges (about 9.5 mm^2 of spikes on a 1.5 mm
     basis body; a 1.2 mm top hinge at 32.8 deg put the profile 0.34 mm above the
-    footprint). Left (the expected failure): where the neck's own footprint nearly fills the
-    face, the acute corner passes the face's end (it does not know the face's extent)."""
+    footprint). A 1.2 mm middle hinge at 45 deg covers 1.7 of the knee's 2 mm side face: its
+    acute corner, t / 4 deep, came 0.30 mm past the face's end, below the knee, until the
+    root stopped at the face's end."""
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
