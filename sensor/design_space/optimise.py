@@ -154,6 +154,11 @@ class DesignProblem:
         (:attr:`StrainEnergyLaw.max_strain_energy_mJ`; inf without hysteresis)."""
         return math.log(self.law.max_strain_energy_mJ)
 
+    def within_law(self, log_se: float) -> bool:
+        """Whether a body of strain energy exp(``log_se``) mJ is inside the hysteresis law's
+        domain (H below :data:`~sensor.mechanics.hysteresis.H_LIMIT`)."""
+        return log_se < self.log_se_limit
+
     @functools.cached_property
     def domain(self) -> "AngleDomain":
         return AngleDomain.of(self)
@@ -380,7 +385,7 @@ def feasible(problem: DesignProblem, pt: Point, slack: float = 0.0, in_range: bo
     :func:`geometry.checks.check_design`."""
     if not pt.ok or pt.utilisation > 1 - slack or (in_range and abs(pt.log_range_error) > math.log1p(RANGE_TOLERANCE)):
         return False
-    if pt.log_se >= problem.log_se_limit:
+    if not problem.within_law(pt.log_se):
         return False
     t = np.array(pt.design.used_thickness_mm)
     if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
@@ -551,7 +556,7 @@ def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
     util = stress_check(design, m, r).utilisation
     if util > 1:
         return False, f"stress {util:.4f} x allowable"
-    if not math.log(r.strain_energy_mJ) < problem.log_se_limit:   # the test of feasible()
+    if not problem.within_law(math.log(r.strain_energy_mJ)):
         h = qualify(r, problem.law).hysteresis
         return False, f"predicted hysteresis {h:.4f}: past the hysteresis law's domain (H < {H_LIMIT:g})"
     t = np.array(design.used_thickness_mm)

@@ -117,7 +117,7 @@ def _check_domain(problem: DesignProblem, design: Design) -> None:
     if model is None:
         raise DesignError(f"range_N = {problem.range_N:g}: the robust drawing does not solve ({r})")
     se = r.strain_energy_mJ
-    if not math.log(se) < problem.log_se_limit:
+    if not problem.within_law(math.log(se)):
         raise DesignError(f"range_N = {problem.range_N:g}: no robust design inside the hysteresis law's domain "
                           f"(H < {H_LIMIT:g}): the search ended at a drawing whose strain energy is {se:.4g} mJ "
                           f"(past {problem.law.max_strain_energy_mJ:.4g}); the nominal design is inside it "
