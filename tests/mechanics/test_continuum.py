@@ -9,12 +9,14 @@ import pytest
 from types import SimpleNamespace
 
 from geometry.params import Material, preset
-from sensor.errors import SensorInputError
+from sensor.errors import SensorInputError, SolverError
 from sensor.mechanics.continuum import (
     REFINEMENT_RATIO,
     _corner_gradients,
     _gradients_at,
     cut_profile_loops,
+    gmsh_session,
+    mesh_elements,
     mesh_profile,
     neck_points,
     relative_error_pct,
@@ -263,3 +265,18 @@ def test_stability_check_counts_the_buckling_modes_of_a_clamped_strip(factor, mo
     u = _solve_dirichlet(pb.K, np.zeros(pb.K.shape[0]), idx, val)
     u, _ = _newton_tl(pb, u, travel)
     assert tangent_negative_modes(pb, u) == modes
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_model_gmsh_leaves_without_simplices_is_a_solver_error(dim):
+    """A degenerate outline leaves gmsh no triangles (or tetrahedra) to make; mesh_elements
+    says so in one line rather than failing on an empty element list. Here the model has
+    only curves: gmsh meshes them and makes no cell of the dimension asked for."""
+    with gmsh_session("curves only") as gmsh:
+        p = [gmsh.model.geo.addPoint(x, y, 0.0) for x, y in ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0))]
+        gmsh.model.geo.addLine(p[0], p[1])
+        gmsh.model.geo.addLine(p[1], p[2])
+        gmsh.model.geo.synchronize()
+        gmsh.model.mesh.generate(1)
+        with pytest.raises(SolverError, match=f"gmsh made no {('triangles', 'tetrahedra')[dim - 2]}"):
+            mesh_elements(dim)
