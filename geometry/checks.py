@@ -15,13 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from geometry.errors import InfeasibleDesignError
-from geometry.layout import Layout, Part, bar, make_layout, make_parts
+from geometry.layout import Layout, Part, bar, make_layout, make_parts, side_members
 from geometry.params import Design
 
 #: Smallest mirror the platform must carry (mm): DESIGN section 3 ("a mirror of about 3-5 mm").
 MIRROR_MIN_MM = 3.0
 
-RULES = ("angle_limits", "min_feature", "hinge_fits", "footprint", "no_crossing",
+RULES = ("angle_limits", "min_feature", "hinge_fits", "hinge_on_face", "footprint", "no_crossing",
          "kerf_gap", "platform_inside")
 
 
@@ -236,6 +236,18 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
     add("hinge_fits", llen >= d.link_width_mm,
         f"hinge_length_mm = {d.hinge_length_mm:g}: leaves the {shortest.name} only {llen:.2f} mm "
         f"between its hinges; must be >= link_width_mm = {d.link_width_mm:g} mm", llen - d.link_width_mm)
+
+    # a hinge leaning from its face's normal meets it over t / cos(lean): the knees' and the
+    # platform's faces are short, and a neck wider than its face overhangs the body's corner
+    meets = []
+    for sm in side_members(lay):
+        for h, face in zip(sm.hinges, sm.faces):
+            t = d.hinge_thickness_mm[h - 1]
+            meets.append((face.across - t / math.cos(math.radians(sm.lean_deg)), h, t, sm.lean_deg, face))
+    room, h, t, lean_deg, face = min(meets, key=lambda m: m[0])
+    add("hinge_on_face", room >= 0.0,
+        f"hinge {h} thickness = {t:g} mm: leaning {lean_deg:g} deg, it meets the {face.body} over "
+        f"{face.across - room:.2f} mm; must be <= the face's {face.across:g} mm", room)
 
     lo, hi = poly.reshape(-1, 2).min(0), poly.reshape(-1, 2).max(0)
     tol = 1e-9

@@ -112,18 +112,17 @@ def member_chain(a: np.ndarray, b: np.ndarray, hinge_length: float) -> np.ndarra
 
 
 class Face(NamedTuple):
-    """The face of a body that a hinge joins: its normal (a unit axis, either sign), where it
-    runs (``span``: its first and last coordinate along the face, mm; infinite for the
-    plates, whose faces are long) and the body's depth behind it, mm."""
+    """The face of a body that a hinge joins (mm): the body's name; the face's normal, a
+    positive unit axis (y for the plates' and knees' horizontal faces, x for the knees' and
+    the platform's vertical side faces); where the face starts along the other axis and its
+    length there (``across``: infinite for the plates, taken as long: a top-plate half runs
+    link_width_mm past its hinge); and the body's depth behind it."""
 
+    body: str
     normal: tuple[float, float]
-    span: tuple[float, float]
+    start: float
+    across: float
     depth: float
-
-    @property
-    def across(self) -> float:
-        """The face's length, mm."""
-        return self.span[1] - self.span[0]
 
 
 class SideMember(NamedTuple):
@@ -143,22 +142,25 @@ def side_members(lay: Layout) -> list[SideMember]:
     """The hinge-link-hinge members, in the order and with the hinge numbers of the loop
     numbering of :mod:`geometry.params`."""
     d = lay.design
-    up, side = (0.0, 1.0), (1.0, 0.0)
-    plate = Face(up, (-math.inf, math.inf), d.plate_thickness_mm)
-    knee_x = (-d.width_mm / 2, -d.width_mm / 2 + d.knee_width_mm)
-    knee = Face(up, knee_x, d.knee_height_mm)                  # a knee's bottom or top face
-    knee_r = Face(up, (-knee_x[1], -knee_x[0]), d.knee_height_mm)
-    m = [SideMember("left lower", np.array([lay.P0, lay.P1]), (1, 2), (plate, knee), d.phi1_deg),
-         SideMember("left upper", np.array([lay.P2, lay.P3]), (3, 4), (knee, plate), d.phi1_deg),
-         SideMember("right upper", np.array([_mirror(lay.P3), _mirror(lay.P2)]), (5, 6), (plate, knee_r), d.phi1_deg),
-         SideMember("right lower", np.array([_mirror(lay.P1), _mirror(lay.P0)]), (7, 8), (knee_r, plate), d.phi1_deg)]
+    upward, sideways = (0.0, 1.0), (1.0, 0.0)     # the normals of horizontal and vertical faces
+    base = Face("base plate", upward, -math.inf, math.inf, d.plate_thickness_mm)
+    top = Face("top plate", upward, -math.inf, math.inf, d.plate_thickness_mm)
+    # a knee's bottom and top faces
+    knee_l = Face("left knee", upward, -d.width_mm / 2, d.knee_width_mm, d.knee_height_mm)
+    knee_r = Face("right knee", upward, d.width_mm / 2 - d.knee_width_mm, d.knee_width_mm, d.knee_height_mm)
+    m = [SideMember("left lower", np.array([lay.P0, lay.P1]), (1, 2), (base, knee_l), d.phi1_deg),
+         SideMember("left upper", np.array([lay.P2, lay.P3]), (3, 4), (knee_l, top), d.phi1_deg),
+         SideMember("right upper", np.array([_mirror(lay.P3), _mirror(lay.P2)]), (5, 6), (top, knee_r), d.phi1_deg),
+         SideMember("right lower", np.array([_mirror(lay.P1), _mirror(lay.P0)]), (7, 8), (knee_r, base), d.phi1_deg)]
     if not d.is_basis:
-        knee_side = Face(side, (float(lay.P1[1]), float(lay.P2[1])), d.knee_width_mm)   # a knee's inner face
-        y0 = float(lay.output_point[1])
-        platform = Face(side, (y0, y0 + d.platform_thickness_mm), d.platform_width_mm / 2)
-        m += [SideMember("left middle", np.array([lay.K, lay.Q]), (9, 10), (knee_side, platform), d.phi2_deg),
+        # a knee's inner face, and the platform's side face
+        y_knee, y_platform = float(lay.P1[1]), float(lay.output_point[1])
+        inner_l = Face("left knee", sideways, y_knee, d.knee_height_mm, d.knee_width_mm)
+        inner_r = inner_l._replace(body="right knee")
+        platform = Face("platform", sideways, y_platform, d.platform_thickness_mm, d.platform_width_mm / 2)
+        m += [SideMember("left middle", np.array([lay.K, lay.Q]), (9, 10), (inner_l, platform), d.phi2_deg),
               SideMember("right middle", np.array([_mirror(lay.Q), _mirror(lay.K)]), (11, 12),
-                         (platform, knee_side), d.phi2_deg)]
+                         (platform, inner_r), d.phi2_deg)]
     return m
 
 
@@ -191,12 +193,12 @@ def make_parts(lay: Layout) -> list[Part]:
                   Part("platform right", "platform", _rect(0.0, y0, half, y0 + d.platform_thickness_mm), 0,
                        np.array([[0.0, ym], [half, ym]]), d.platform_thickness_mm)]
     lh = d.hinge_length_mm
-    for m in side_members(lay):
-        nodes = member_chain(m.ends[0], m.ends[1], lh)
-        (h1, h2), (face1, face2) = m.hinges, m.faces
+    for sm in side_members(lay):
+        nodes = member_chain(sm.ends[0], sm.ends[1], lh)
+        (h1, h2), (face1, face2) = sm.hinges, sm.faces
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         parts.append(Part(f"hinge {h1}", "hinge", rooted_neck(nodes[0], nodes[1], t1, face1), h1, nodes[0:2], t1))
-        parts.append(Part(f"{m.name} link", "link", bar(nodes[1], nodes[2], d.link_width_mm), 0,
+        parts.append(Part(f"{sm.name} link", "link", bar(nodes[1], nodes[2], d.link_width_mm), 0,
                           nodes[1:3], d.link_width_mm))
         parts.append(Part(f"hinge {h2}", "hinge", rooted_neck(nodes[3], nodes[2], t2, face2), h2, nodes[2:4], t2))
     return parts
@@ -210,19 +212,21 @@ def rooted_neck(point: np.ndarray, end: np.ndarray, width: float, face: Face) ->
     """The neck of ``width`` from ``point`` on a body's ``face`` to ``end``, with its root
     inside the body: on the acute side of a leaning neck its edge is carried on to
     ROOT_OVERLAP_PER_THICKNESS x width deep (that closes the notch the lean leaves there),
-    but not past the face's end; on the obtuse side it stops where it meets the face. So the
-    root reaches along the face no further than the neck's own footprint, and no deeper
-    than that (a bar 2 width long came out through the far faces of the 2 mm plates and
-    knees under thick hinges). Convex, counter-clockwise, mm."""
+    but no further along the face than where the face ends (a neck wider than its face
+    overhangs it all the same: geometry.checks' ``hinge_on_face`` rule); on the obtuse side
+    it stops where it meets the face. So the root reaches no deeper than a quarter width (a
+    bar 2 width long came out through the far faces of the 2 mm plates and knees under
+    thick hinges). Convex, counter-clockwise, mm."""
     (f0, f1), (e0, e1) = (float(point[0]), float(point[1])), (float(end[0]), float(end[1]))
     length = math.hypot(e0 - f0, e1 - f1)
     wx, wy = (e0 - f0) / length, (e1 - f1) / length             # out of the body, along the neck
     vx, vy = -wy * width / 2, wx * width / 2                     # half the width, to the left
     sign = math.copysign(1.0, face.normal[0] * wx + face.normal[1] * wy)
     mx, my = sign * face.normal[0], sign * face.normal[1]        # the face's outward normal
-    tx, ty = face.normal[1], face.normal[0]                      # along the face (span's axis)
+    tx, ty = face.normal[1], face.normal[0]                      # the axis along the face
     along, lean, depth = wx * mx + wy * my, vx * mx + vy * my, ROOT_OVERLAP_PER_THICKNESS * width
-    (lo, hi), slide = face.span, wx * tx + wy * ty              # slide: along the face per unit s
+    slide = wx * tx + wy * ty                                    # along the face per unit s
+    bounded = face.across < math.inf and slide != 0.0            # a corner can pass the face's end
 
     def root(side: float) -> list[float]:
         """The root's corner on one side (-1: right, 1: left): its edge carried on to
@@ -230,9 +234,9 @@ def rooted_neck(point: np.ndarray, end: np.ndarray, width: float, face: Face) ->
         and back to the face's end if it would pass it."""
         at_face = -side * lean / along
         s = (-(depth if side * lean >= 0 else 0.0) - side * lean) / along
-        if slide:
+        if bounded:
             c = (f0 + s * wx + side * vx) * tx + (f1 + s * wy + side * vy) * ty
-            end_s = s + (min(max(c, lo), hi) - c) / slide
+            end_s = s + (min(max(c, face.start), face.start + face.across) - c) / slide
             s = min(max(s, end_s), at_face)
         return [f0 + s * wx + side * vx, f1 + s * wy + side * vy]
 

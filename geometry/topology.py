@@ -304,14 +304,14 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     r = root_radius_mm(d)
     profiles, body_depth = {}, {}  # hinge -> hinge_profile(...), its root depth into the body
     for sm in side_members(lay):
-        (h1, h2), (face1, face2), lean = sm.hinges, sm.faces, sm.lean_deg
+        (h1, h2), (face1, face2), lean_deg = sm.hinges, sm.faces, sm.lean_deg
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         # each hinge leans from its body face's normal (geometry.layout.SideMember); a link's
         # own end face is square to it
-        ends1 = ((r, (face1.across - t1 / math.cos(math.radians(lean))) / 2, lean, face1.depth),
+        ends1 = ((r, (face1.across - t1 / math.cos(math.radians(lean_deg))) / 2, lean_deg, face1.depth),
                  (r, (d.link_width_mm - t1) / 2, 0.0, d.link_width_mm))
         ends2 = ((r, (d.link_width_mm - t2) / 2, 0.0, d.link_width_mm),
-                 (r, (face2.across - t2 / math.cos(math.radians(lean))) / 2, lean, face2.depth))
+                 (r, (face2.across - t2 / math.cos(math.radians(lean_deg))) / 2, lean_deg, face2.depth))
         profiles[h1] = p1 = hinge_profile(t1, d.hinge_length_mm, ends1)
         profiles[h2] = p2 = hinge_profile(t2, d.hinge_length_mm, ends2)
         body_depth[h1] = p1[3]                                   # the body is at the start of h1

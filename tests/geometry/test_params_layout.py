@@ -7,7 +7,7 @@ import pytest
 
 from geometry.checks import RULES, assert_feasible, check_design, phi1_limit_deg
 from geometry.errors import GeometryError, InfeasibleDesignError, ParameterError
-from geometry.layout import kinematic_amplification, make_layout, make_parts
+from geometry.layout import Face, kinematic_amplification, make_layout, make_parts, rooted_neck
 from geometry.params import (
     PRESETS,
     TABLE7_HINGES,
@@ -232,8 +232,8 @@ def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
     of the 2 mm plates and knees under thick hinges (about 9.5 mm^2 of spikes on a 1.5 mm
     basis body; a 1.2 mm top hinge at 32.8 deg put the profile 0.34 mm above the
     footprint). A 1.2 mm middle hinge at 45 deg covers 1.7 of the knee's 2 mm side face: its
-    acute corner, t / 4 deep, came 0.30 mm past the face's end, below the knee, until the
-    root stopped at the face's end."""
+    acute corner, t / 4 = 0.30 mm deep, came 0.15 mm past the face's end, below the knee,
+    until the root stopped at the face's end."""
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
@@ -255,6 +255,26 @@ def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
         corners = np.array([c for piece in getattr(outside, "geoms", [outside]) if piece.area > 1e-12
                             for c in piece.exterior.coords])
         assert np.min((corners - face) @ normal) > -1e-9, p.name
+
+
+def test_a_root_stops_at_its_faces_end():
+    """By hand: a 1.2 mm neck leaves a vertical face (x = 0, y from 0 to 2 mm, the body at
+    x < 0) from (0, 1) at 45 deg. Its acute (lower) corner, carried t / 4 = 0.3 mm deep
+    along its edge, would lie at (-0.3, -0.1485), below the face's end: it stops where that
+    edge crosses y = 0, at (-0.1515, 0). The obtuse corner lies on the face, at
+    y = 1 + 0.6 sqrt(2). On an endless face the acute corner keeps its full depth; a neck
+    square to a short face is a rectangle reaching t / 4 into the body on both sides."""
+    w = np.array([1.0, 1.0]) / math.sqrt(2.0)
+    point, end = np.array([0.0, 1.0]), np.array([0.0, 1.0]) + 2.0 * w
+    knee = Face("knee", (1.0, 0.0), 0.0, 2.0, 2.5)
+    corners = rooted_neck(point, end, 1.2, knee)
+    np.testing.assert_allclose(corners[0], [0.6 * math.sqrt(2.0) - 1.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(corners[3], [0.0, 1.0 + 0.6 * math.sqrt(2.0)], atol=1e-12)
+    endless = rooted_neck(point, end, 1.2, knee._replace(start=-math.inf, across=math.inf))
+    np.testing.assert_allclose(endless[0], [-0.3, 0.7 - 0.6 * math.sqrt(2.0)], atol=1e-12)
+    np.testing.assert_allclose(endless[1:], corners[1:], atol=0)
+    square = rooted_neck(point, np.array([2.0, 1.0]), 1.2, knee)
+    np.testing.assert_allclose(square, [[-0.3, 0.4], [2.0, 0.4], [2.0, 1.6], [-0.3, 1.6]], atol=1e-12)
 
 
 @pytest.mark.parametrize("phi1,phi2", [(22, 17.2), (21, 34), (15, 40), (30, 10)])
@@ -319,6 +339,8 @@ BROKEN = {
     "angle_limits": dict(phi1_deg=35.0),
     "min_feature": dict(hinge_thickness_mm=(0.5,) * 8 + (0.2,) * 4),
     "hinge_fits": dict(hinge_length_mm=4.5),
+    # sample A's phi2 34 deg: 1.8 mm middle hinges meet the knees' 2 mm inner faces over 2.17 mm
+    "hinge_on_face": dict(hinge_thickness_mm=(0.5,) * 8 + (1.8,) * 4),
     "footprint": dict(phi1_deg=5.0, link_width_mm=4.0),
     "no_crossing": dict(phi1_deg=31.0, phi2_deg=55.0),
     "kerf_gap": dict(kerf_mm=2.5),
