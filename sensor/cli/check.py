@@ -13,7 +13,8 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "check", help="feasibility report of a design (every rule, pass or fail)",
         description="Evaluate every feasibility rule of a design (angle limits, minimum "
-                    "feature, hinge fit, footprint, crossing parts, kerf gaps, platform) and "
+                    "feature, hinge fit, each hinge's width on its face, footprint, crossing "
+                    "parts, kerf gaps, platform) and "
                     "print the kinematic amplification A_kin = 1/2 + cot(phi2) / (2 tan(phi1)). "
                     "Exit status 0 if feasible, 1 if a rule fails, 2 for bad input.")
     add_design_arguments(p)
