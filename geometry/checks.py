@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geometry.errors import InfeasibleDesignError
-from geometry.layout import Layout, Part, bar, make_layout, make_parts, side_members
+from geometry.layout import Layout, Part, bar, make_layout, make_parts
 from geometry.params import Design
 
 #: Smallest mirror the platform must carry (mm): DESIGN section 3 ("a mirror of about 3-5 mm").
@@ -240,7 +240,7 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
     # a hinge leaning from its face's normal meets it over t / cos(lean): the knees' and the
     # platform's faces are short, and a neck wider than its face overhangs the body's corner
     meets = []
-    for sm in side_members(lay):
+    for sm in lay.side_members:
         for h, face in zip(sm.hinges, sm.faces):
             t = d.hinge_thickness_mm[h - 1]
             meets.append((face.across - t / math.cos(math.radians(sm.lean_deg)), h, t, sm.lean_deg, face))

@@ -13,6 +13,7 @@ platform's side face Q (hinges 9 and 10 on the left, 12 and 11 on the right).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -56,6 +57,34 @@ class Layout:
     input_point: np.ndarray   # top plate centre, top face (load applied here, downward)
     output_point: np.ndarray  # the mirror: platform underside centre (top plate's for basis)
     post_top: float      # fiber tip level (top of the fiber post)
+
+    @functools.cached_property
+    def side_members(self) -> tuple[SideMember, ...]:
+        """The hinge-link-hinge members, in the order and with the hinge numbers of the loop
+        numbering of :mod:`geometry.params` (built once: the profile, the beam model and the
+        feasibility rules all read them)."""
+        d = self.design
+        upward, sideways = (0.0, 1.0), (1.0, 0.0)     # the normals of horizontal and vertical faces
+        base = Face("base plate", upward, -math.inf, math.inf, d.plate_thickness_mm)
+        top = Face("top plate", upward, -math.inf, math.inf, d.plate_thickness_mm)
+        # a knee's bottom and top faces
+        knee_l = Face("left knee", upward, -d.width_mm / 2, d.knee_width_mm, d.knee_height_mm)
+        knee_r = Face("right knee", upward, d.width_mm / 2 - d.knee_width_mm, d.knee_width_mm, d.knee_height_mm)
+        P0, P1, P2, P3 = self.P0, self.P1, self.P2, self.P3
+        m = [SideMember("left lower", np.array([P0, P1]), (1, 2), (base, knee_l), d.phi1_deg),
+             SideMember("left upper", np.array([P2, P3]), (3, 4), (knee_l, top), d.phi1_deg),
+             SideMember("right upper", np.array([_mirror(P3), _mirror(P2)]), (5, 6), (top, knee_r), d.phi1_deg),
+             SideMember("right lower", np.array([_mirror(P1), _mirror(P0)]), (7, 8), (knee_r, base), d.phi1_deg)]
+        if not d.is_basis:
+            # a knee's inner face, and the platform's side face
+            y_knee, y_platform = float(P1[1]), float(self.output_point[1])
+            inner_l = Face("left knee", sideways, y_knee, d.knee_height_mm, d.knee_width_mm)
+            inner_r = inner_l._replace(body="right knee")
+            platform = Face("platform", sideways, y_platform, d.platform_thickness_mm, d.platform_width_mm / 2)
+            m += [SideMember("left middle", np.array([self.K, self.Q]), (9, 10), (inner_l, platform), d.phi2_deg),
+                  SideMember("right middle", np.array([_mirror(self.Q), _mirror(self.K)]), (11, 12),
+                             (platform, inner_r), d.phi2_deg)]
+        return tuple(m)
 
 
 def _mirror(p: np.ndarray) -> np.ndarray:
@@ -138,32 +167,6 @@ class SideMember(NamedTuple):
     lean_deg: float
 
 
-def side_members(lay: Layout) -> list[SideMember]:
-    """The hinge-link-hinge members, in the order and with the hinge numbers of the loop
-    numbering of :mod:`geometry.params`."""
-    d = lay.design
-    upward, sideways = (0.0, 1.0), (1.0, 0.0)     # the normals of horizontal and vertical faces
-    base = Face("base plate", upward, -math.inf, math.inf, d.plate_thickness_mm)
-    top = Face("top plate", upward, -math.inf, math.inf, d.plate_thickness_mm)
-    # a knee's bottom and top faces
-    knee_l = Face("left knee", upward, -d.width_mm / 2, d.knee_width_mm, d.knee_height_mm)
-    knee_r = Face("right knee", upward, d.width_mm / 2 - d.knee_width_mm, d.knee_width_mm, d.knee_height_mm)
-    m = [SideMember("left lower", np.array([lay.P0, lay.P1]), (1, 2), (base, knee_l), d.phi1_deg),
-         SideMember("left upper", np.array([lay.P2, lay.P3]), (3, 4), (knee_l, top), d.phi1_deg),
-         SideMember("right upper", np.array([_mirror(lay.P3), _mirror(lay.P2)]), (5, 6), (top, knee_r), d.phi1_deg),
-         SideMember("right lower", np.array([_mirror(lay.P1), _mirror(lay.P0)]), (7, 8), (knee_r, base), d.phi1_deg)]
-    if not d.is_basis:
-        # a knee's inner face, and the platform's side face
-        y_knee, y_platform = float(lay.P1[1]), float(lay.output_point[1])
-        inner_l = Face("left knee", sideways, y_knee, d.knee_height_mm, d.knee_width_mm)
-        inner_r = inner_l._replace(body="right knee")
-        platform = Face("platform", sideways, y_platform, d.platform_thickness_mm, d.platform_width_mm / 2)
-        m += [SideMember("left middle", np.array([lay.K, lay.Q]), (9, 10), (inner_l, platform), d.phi2_deg),
-              SideMember("right middle", np.array([_mirror(lay.Q), _mirror(lay.K)]), (11, 12),
-                         (platform, inner_r), d.phi2_deg)]
-    return m
-
-
 def make_parts(lay: Layout) -> list[Part]:
     """The convex pieces whose union is the 2D profile."""
     d = lay.design
@@ -193,7 +196,7 @@ def make_parts(lay: Layout) -> list[Part]:
                   Part("platform right", "platform", _rect(0.0, y0, half, y0 + d.platform_thickness_mm), 0,
                        np.array([[0.0, ym], [half, ym]]), d.platform_thickness_mm)]
     lh = d.hinge_length_mm
-    for sm in side_members(lay):
+    for sm in lay.side_members:
         nodes = member_chain(sm.ends[0], sm.ends[1], lh)
         (h1, h2), (face1, face2) = sm.hinges, sm.faces
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from geometry.errors import GeometryError
-from geometry.layout import Layout, make_layout, side_members
+from geometry.layout import Layout, make_layout
 from geometry.params import MAX_LENGTH_MM, Design
 from geometry.validation import Number, is_integer, is_real
 
@@ -303,7 +303,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     # every hinge: its thickness profile between its face on a body and its face on a link
     r = root_radius_mm(d)
     profiles, body_depth = {}, {}  # hinge -> hinge_profile(...), its root depth into the body
-    for sm in side_members(lay):
+    for sm in lay.side_members:
         (h1, h2), (face1, face2), lean_deg = sm.hinges, sm.faces, sm.lean_deg
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         # each hinge leans from its body face's normal (geometry.layout.SideMember); a link's
@@ -358,7 +358,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
 
     lh = d.hinge_length_mm
     shape: dict[int, tuple] = {}  # member index -> (profile, neck stations, root radii)
-    for sm in side_members(lay):
+    for sm in lay.side_members:
         (h1, h2), (a, b), name = sm.hinges, sm.ends, sm.name
         t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
         (ax, ay), (bx, by) = a.tolist(), b.tolist()

@@ -246,7 +246,7 @@ def test_hinge_roots_stay_inside_the_bodies_they_join(phi1, phi2, t):
         neck = Polygon(bar(p.axis[0], p.axis[1], p.width))
         root = Polygon(p.polygon).difference(neck)
         # the point on the face (each member's first hinge starts there, its second ends
-        # there; geometry.layout.side_members) and the face's outward normal
+        # there; geometry.layout.Layout.side_members) and the face's outward normal
         face, end = (p.axis[0], p.axis[1]) if p.hinge % 2 else (p.axis[1], p.axis[0])
         normal = np.array([1.0, 0.0]) if p.hinge >= 9 else np.array([0.0, 1.0])
         normal = normal * np.sign(normal @ (end - face))
