@@ -12,7 +12,8 @@ design search (:mod:`sensor.design_space.optimise`) minimises (maximises) log ra
 to the stress utilisation <= 1 - STRESS_SLACK, the hysteresis law's domain (H < H_LIMIT) and
 the angle domain. The ends are the extremes of every feasible body seen, the scans included,
 so they are never inside a feasible body the grid holds (tests/design_space/test_optimise.py
-holds them against a dense scan of equal-hinge bodies at every thickness).
+holds them against a dense scan of equal-hinge bodies at every thickness). A family's bodies
+are found once per process (:func:`feasible_bodies`).
 """
 
 from __future__ import annotations
@@ -97,23 +98,43 @@ def _end_starts(problem: DesignProblem, corner: float, scan: list[Point]) -> np.
     return np.vstack([*best, lhs])
 
 
-def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False):
-    """(smallest, largest) range (N) of the feasible bodies of the problem's family, within
-    the stress limit less STRESS_SLACK and the hysteresis law's domain: the best feasible body each end's searches found
-    (NaN, NaN if none); ``with_bodies``: also the feasible bodies the searches found whose
-    range is nearest the problem's (a list, empty if none) and the nearest feasible ranges
-    found below and above it. The feasible ranges need not be one interval: the stress limit
-    can leave a gap (the basis body in delrin: about 9-20 N), which these name."""
+#: The feasible bodies found per problem family (the problem with its range aside, by its
+#: repr) in this process, at most REACH_CACHED families: ``optimise`` asks for a family's
+#: reach at every range outside it, and a script designing several ranges asks again.
+REACH_CACHED = 8
+_found: dict[str, tuple[Point, ...]] = {}
+
+
+def feasible_bodies(problem: DesignProblem, pool=None) -> tuple[Point, ...]:
+    """Every feasible body of the problem's family (its range aside) that the reach's scans
+    and end searches find, within the stress limit less STRESS_SLACK and the hysteresis law's
+    domain, by increasing range; computed once per family in a process (the searches are
+    deterministic: the same family gives the same bodies, in a pool or not)."""
     p = replace(problem, range_N=1.0)     # the range is the objective here, not a constraint
-    softest = softest_scan(p, scan_angles(p))
-    scans = {0.0: softest, 1.0: stiffest_scan(p, softest)}
-    jobs = [(p, u, objective) for corner, objective in ((0.0, "min_range"), (1.0, "max_range"))
-            for u in _end_starts(p, corner, scans[corner])]
-    runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
-    ends = evaluate(p, p.from_unit(np.array([u for u, _, _ in runs])))
-    pts = [pt for _, seen, _ in runs for pt in seen] + ends + scans[0.0] + scans[1.0]
-    good = sorted((pt for pt in pts if feasible(p, pt, slack=STRESS_SLACK - 1e-9, in_range=False)),
-                  key=lambda pt: pt.log_range_error)
+    key = repr(p)
+    if key not in _found:
+        softest = softest_scan(p, scan_angles(p))
+        scans = {0.0: softest, 1.0: stiffest_scan(p, softest)}
+        jobs = [(p, u, objective) for corner, objective in ((0.0, "min_range"), (1.0, "max_range"))
+                for u in _end_starts(p, corner, scans[corner])]
+        runs = pool.map(_local_search, jobs) if pool is not None and pool.size > 1 else [_local_search(j) for j in jobs]
+        ends = evaluate(p, p.from_unit(np.array([u for u, _, _ in runs])))
+        pts = [pt for _, seen, _ in runs for pt in seen] + ends + scans[0.0] + scans[1.0]
+        if len(_found) >= REACH_CACHED:
+            _found.pop(next(iter(_found)))
+        _found[key] = tuple(sorted((pt for pt in pts if feasible(p, pt, slack=STRESS_SLACK - 1e-9, in_range=False)),
+                                   key=lambda pt: pt.log_range_error))
+    return _found[key]
+
+
+def reachable_range(problem: DesignProblem, pool=None, with_bodies: bool = False):
+    """(smallest, largest) range (N) of the feasible bodies of the problem's family
+    (:func:`feasible_bodies`): the best feasible body each end's searches found (NaN, NaN if
+    none); ``with_bodies``: also the feasible bodies found whose range is nearest the
+    problem's (a list, empty if none) and the nearest feasible ranges found below and above
+    it. The feasible ranges need not be one interval: the stress limit can leave a gap (the
+    basis body in delrin: about 9-20 N), which these name."""
+    good = feasible_bodies(problem, pool)
     reach = (float(np.exp(good[0].log_range_error)), float(np.exp(good[-1].log_range_error))) if good else (np.nan, np.nan)
     if with_bodies:
         # the feasible bodies found nearest the problem's range (starts for a search), and the

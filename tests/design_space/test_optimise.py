@@ -90,6 +90,20 @@ def test_reach_brackets_every_feasible_equal_hinge_body_and_its_ends_are_feasibl
             optimise(DesignProblem(r), n_starts=4)
 
 
+def test_a_familys_reach_is_found_once_and_families_do_not_share_it():
+    """The reach's bodies depend on the family, not the range: a second range of the same
+    family gets the very bodies found for the first (no search), a family that differs in one
+    field (the hinges' upper bound) its own, and reachable_range reads them for each range."""
+    from sensor.design_space.reach import feasible_bodies
+
+    first = feasible_bodies(DesignProblem(1.0))
+    assert feasible_bodies(DesignProblem(7.0)) is first
+    other = feasible_bodies(DesignProblem(1.0, hinge_max_mm=0.6))
+    assert other is not first and max(pt.log_range_error for pt in other) < max(pt.log_range_error for pt in first)
+    lo, hi = reachable_range(DesignProblem(7.0))
+    assert (lo, hi) == (math.exp(first[0].log_range_error), math.exp(first[-1].log_range_error))
+
+
 def test_written_values_are_rounded_inward_and_load(tmp_path):
     """Rounding never leaves a bound: values just over an upper bound go down, just under a
     lower bound go up; the design written and loaded back is the one accepted."""
