@@ -1,7 +1,7 @@
 """The range-targeted optimiser (sensor.design_space.optimise, reach): a feasible body at
 every reachable range, the existence proof by an equal-hinge scan, never worse than the best
-equal-hinge cell, the reach computation against that scan, written values that load and keep
-every rule, and bad input."""
+equal-hinge cell, written values that load and keep every rule, and bad input (the reach:
+test_reach.py)."""
 
 import math
 
@@ -15,14 +15,12 @@ from sensor.design_space.optimise import (
     DesignProblem,
     _round_inward,
     accept,
-    describe,
     evaluate,
     feasible,
     optimise,
     project,
     scale_to_range,
 )
-from sensor.design_space.reach import reachable_range
 from sensor.errors import DesignError
 
 RANGES = (0.5, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0)
@@ -65,43 +63,6 @@ def test_a_feasible_body_whenever_an_equal_hinge_cell_proves_one_exists(body, ma
         if cells:
             best = min(float(np.exp(pt.log_se)) * p.law.h_per_mJ for pt in cells)
             assert res.hysteresis <= best * 1.001, (body, material, r, res.hysteresis, best)
-
-
-def test_reach_brackets_every_feasible_equal_hinge_body_and_its_ends_are_feasible():
-    """The reachable interval of the proposed body in delrin: no feasible equal-hinge body of
-    a dense scan (2-degree angles, 30 thicknesses of 0.3-2 mm) lies outside it (1e-3 for the
-    search's convergence), and a range just inside each end gets a body while one 5 % outside
-    gets the one-line refusal naming the interval."""
-    p = DesignProblem(1.0)
-    lo, hi = reachable_range(p)
-    axes = [np.arange(a, b, 2.0) for a, b in zip(p.lower[:2], p.upper[:2])]
-    angles = np.array(np.meshgrid(*axes, indexing="ij")).reshape(2, -1).T
-    ranges = []
-    for t in np.geomspace(p.hinge_min_mm, p.hinge_max_mm, 30):
-        Z = np.hstack([angles, np.full((len(angles), 6), math.log(t))])
-        ranges += [math.exp(pt.log_range_error) for pt in evaluate(p, Z)
-                   if feasible(p, pt, slack=0.005, in_range=False)]
-    assert min(ranges) >= lo * (1 - 1e-3) and max(ranges) <= hi * (1 + 1e-3), (lo, hi, min(ranges), max(ranges))
-    for r in (lo * 1.002, hi * 0.998):
-        res = optimise(DesignProblem(r), n_starts=4)
-        assert accept(DesignProblem(r), res.design)[0]
-    for r in (lo * 0.95, hi * 1.05):
-        with pytest.raises(DesignError, match=r"the reachable interval is [\d.]+ to [\d.]+ N"):
-            optimise(DesignProblem(r), n_starts=4)
-
-
-def test_a_familys_reach_is_found_once_and_families_do_not_share_it():
-    """The reach's bodies depend on the family, not the range: a second range of the same
-    family gets the very bodies found for the first (no search), a family that differs in one
-    field (the hinges' upper bound) its own, and reachable_range reads them for each range."""
-    from sensor.design_space.reach import feasible_bodies
-
-    first = feasible_bodies(DesignProblem(1.0))
-    assert feasible_bodies(DesignProblem(7.0)) is first
-    other = feasible_bodies(DesignProblem(1.0, hinge_max_mm=0.6))
-    assert other is not first and max(pt.log_range_error for pt in other) < max(pt.log_range_error for pt in first)
-    lo, hi = reachable_range(DesignProblem(7.0))
-    assert (lo, hi) == (math.exp(first[0].log_range_error), math.exp(first[-1].log_range_error))
 
 
 def test_written_values_are_rounded_inward_and_load(tmp_path):
@@ -166,33 +127,6 @@ def test_a_range_inside_the_reach_whose_bodies_fail_the_final_check_says_why(mon
     monkeypatch.setattr(optimise_module, "accept", lambda problem, design: (False, reason))
     with pytest.raises(DesignError, match=r"fail the written design's check \(profile spans"):
         optimise(DesignProblem(3.0), n_starts=2)
-
-
-def test_a_range_past_the_hysteresis_laws_domain_is_out_of_reach():
-    """40 N at 1 mm: the stiffest bodies the stress allows store about 16 mJ, where the
-    strain-energy law would predict H near 1, past its domain (H_LIMIT = 0.5: 8.1 mJ with the
-    basis calibration). `dacm design --range 40` returned such a body and then stopped in the
-    sensor model. Now the range is out of reach, the message names the rule and the interval,
-    and the interval's top is a body the law and the sensor model accept, as is the robust
-    design from it."""
-    import re
-
-    from sensor.mechanics.hysteresis import H_LIMIT
-
-    from sensor.design_space.robust import robust
-
-    with pytest.raises(DesignError, match=f"H < {H_LIMIT:g} reaches it") as err:
-        optimise(DesignProblem(40.0), n_starts=2)
-    top = float(re.search(r"reachable interval is [\d.]+ to ([\d.]+) N", str(err.value)).group(1))
-    assert 20.0 < top < 40.0
-    res = optimise(DesignProblem(round(0.98 * top, 2)), n_starts=2)
-    assert res.hysteresis < H_LIMIT
-    describe(res.design, res.problem)          # the sensor model accepts it
-    # the robust search from it keeps to the domain too: `--robust` at 35 N stopped in the
-    # sensor model (its drawing's H was 0.66); its parts' median H and its own are inside
-    rob = robust(res.problem, res.design)
-    assert rob.tolerance.hysteresis_fraction_p50 < H_LIMIT
-    assert describe(rob.design, res.problem)["hysteresis"] < H_LIMIT
 
 
 def test_equal_hinge_groups_reduce_to_the_angles():
