@@ -44,5 +44,5 @@ $(HAZEN_VENV)/bin/python:
 	$(HAZEN_VENV)/bin/pip install --quiet "hazen>=2.0,<3"
 
 bench: setup $(VENV)/.bench $(HAZEN_VENV)/bin/python
-	for f in solve sweep first_run scale snr datasheet plant loop design; do \
+	for f in solve sweep first_run scale snr datasheet plant loop design verify; do \
 		$(BIN)/python -m tests.benchmarks.$$f || exit 1; done
