@@ -211,6 +211,28 @@ def test_mesh_resolves_fillets_smaller_than_the_neck():
             assert size[np.linalg.norm(centre - end, axis=1) < t / 2 + 0.1].max() < 1.5 * 0.4 / QUICK, h
 
 
+def test_size_field_is_its_definition_at_points_placed_by_hand():
+    """The mesh's size field (compiled; gmsh asks it at every point) against its docstring's
+    rule at points placed from each hinge's frame: t / n on the neck's axis, min(t, r) / n at
+    a root with fillets of radius r, growing by half the distance past 1.5 t from the axis
+    (hinges) or t / 2 + 2 r from the root, never above 2 min(link, plate) / n. Exact to
+    rounding (1e-12 mm)."""
+    from sensor.mechanics.continuum import _hinge_frames, _size_function
+
+    n, kerf = 4.0, 0.8
+    d = preset("sample-b").replace(kerf_mm=kerf)
+    size = _size_function(d, n, kerf)
+    h_max = 2.0 * min(d.link_width_mm, d.plate_thickness_mm) / n
+    r = kerf / 2
+    for h, a, u, nrm, L, t in _hinge_frames(d):
+        assert size(*(a + u * L / 2)) == pytest.approx(t / n, abs=1e-12), h        # mid-neck
+        assert size(*a) == pytest.approx(min(t, r) / n, abs=1e-12), h              # a root
+        # off the neck's middle, beyond every other hinge's and root's reach
+        off = a + u * L / 2 + nrm * (1.5 * t + 0.2)
+        assert size(*off) == pytest.approx(min(t / n + 0.1, h_max), abs=1e-12), h
+    assert size(0.0, 22.0) == pytest.approx(h_max, abs=1e-12)   # the open middle, far from hinges
+
+
 def test_peak_is_at_the_fillet_and_above_the_neck_stress():
     """With fillets (r = 0.4 mm) each hinge's peak sits in the neck's end, between the
     drawn root and one fillet radius plus a thickness into the neck, and it is at least
