@@ -157,9 +157,9 @@ def _element_size(x, y, hinges, roots, h_max):
     a million on a coarse study), and the same arithmetic in numpy took 70 us a call."""
     best = h_max
     for i in range(hinges.shape[0]):
-        ax, ay, bx, by, ln2, h_min, reach = hinges[i]
-        s = min(max(((x - ax) * bx + (y - ay) * by) / ln2, 0.0), 1.0)
-        dx, dy = ax + s * bx - x, ay + s * by - y
+        ax, ay, abx, aby, ln2, h_min, reach = hinges[i]
+        s = min(max(((x - ax) * abx + (y - ay) * aby) / ln2, 0.0), 1.0)   # nearest station on the axis
+        dx, dy = ax + s * abx - x, ay + s * aby - y
         best = min(best, h_min + 0.5 * max(math.sqrt(dx * dx + dy * dy) - reach, 0.0))
     for j in range(roots.shape[0]):
         rx, ry, h_root, reach = roots[j]
