@@ -11,7 +11,7 @@ the grid; from the REACH_POLISH best of each and from a Latin hypercube, the sam
 design search (:mod:`sensor.design_space.optimise`) minimises (maximises) log range subject
 to the stress utilisation <= 1 - STRESS_SLACK, the hysteresis law's domain (H < H_LIMIT) and
 the angle domain. The ends are the extremes of every feasible body seen, the scans included,
-so they are never inside a feasible body the grid holds (tests/design_space/test_optimise.py
+so they are never inside a feasible body the grid holds (tests/design_space/test_reach.py
 holds them against a dense scan of equal-hinge bodies at every thickness). A family's bodies
 are found once per process (:func:`feasible_bodies`).
 """
@@ -99,8 +99,9 @@ def _end_starts(problem: DesignProblem, corner: float, scan: list[Point]) -> np.
 
 
 #: The feasible bodies found per problem family (the problem with its range aside, by its
-#: repr) in this process, at most REACH_CACHED families: ``optimise`` asks for a family's
-#: reach at every range outside it, and a script designing several ranges asks again.
+#: repr) in this process, the last REACH_CACHED families: ``optimise`` asks for a family's
+#: reach at every range outside it, and a script designing several ranges asks again. The
+#: model's constants (root rule, Kt, materials' tables) are taken as fixed in a process.
 REACH_CACHED = 8
 _found: dict[str, tuple[Point, ...]] = {}
 
@@ -108,8 +109,9 @@ _found: dict[str, tuple[Point, ...]] = {}
 def feasible_bodies(problem: DesignProblem, pool=None) -> tuple[Point, ...]:
     """Every feasible body of the problem's family (its range aside) that the reach's scans
     and end searches find, within the stress limit less STRESS_SLACK and the hysteresis law's
-    domain, by increasing range; computed once per family in a process (the searches are
-    deterministic: the same family gives the same bodies, in a pool or not)."""
+    domain, by increasing range; computed once per family in a process (kept for the last
+    REACH_CACHED families; the searches are deterministic: the same family gives the same
+    bodies, in a pool or not)."""
     p = replace(problem, range_N=1.0)     # the range is the objective here, not a constraint
     key = repr(p)
     if key not in _found:

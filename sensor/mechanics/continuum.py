@@ -146,10 +146,11 @@ def _size_function(design: Design, n_across: float, kerf_mm: float = 0.0):
     def size(x: float, y: float) -> float:
         return _element_size(x, y, hinge_rows, root_rows, h_max)
 
+    size(0.0, 0.0)   # compiled (or failing) here: inside gmsh's callback an error is lost
     return size
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _element_size(x, y, hinges, roots, h_max):
     """The size of :func:`_size_function` at (x, y), mm: ``hinges`` rows (axis start x, y,
     axis vector x, y, its squared length, size in the hinge, reach), ``roots`` rows (x, y,
