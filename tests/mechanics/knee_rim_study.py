@@ -3,7 +3,7 @@
 The beam model takes each knee block as a rigid body and puts the compliance of the hinge
 roots in it into the hinges (each reaches its root depth past the face,
 :func:`geometry.topology.root_depth_mm`). This study solves the linear continuum of a body
-twice at one mesh level (``--across`` quadratic elements across each hinge): as it is, and
+twice on one mesh (``--across`` quadratic elements across each hinge): as it is, and
 with both knee blocks, all but a rim ``--margin`` mm deep behind their faces, 1000 x stiffer
 (a rigid block to within 0.1 % of its compliance). Where the beam model's error in A shrinks
 against the rigid-knee continuum, part of it goes with the knees' compliance round their
@@ -60,30 +60,35 @@ def knee_cores(design: Design, centres: np.ndarray, margin_mm: float) -> np.ndar
     return inside
 
 
-def linear_fe(design: Design, across: float, margin_mm: float | None) -> tuple[float, float]:
-    """(A, k_out N/mm) of the linear continuum as :func:`sensor.mechanics.continuum.verify`
-    solves it on one mesh; with ``margin_mm``, the knees' cores made rigid."""
-    from skfem import Basis, asm
-    from skfem.models.elasticity import linear_elasticity
-
-    points, triangles = continuum.mesh_profile(design, across, 0.5, 2.0 * root_radius_mm(design))
-    pb = continuum._problem(design, points, triangles, False, 0.5, "bottom edge")
-    if margin_mm is not None:
-        mesh = pb.basis.mesh
-        core = np.flatnonzero(knee_cores(design, mesh.p[:, mesh.t].mean(axis=1), margin_mm))
-        stiff = asm(linear_elasticity(pb.lam, pb.mu), Basis(mesh, pb.basis.elem, intorder=4, elements=core))
-        pb = dataclasses.replace(pb, K=pb.K + (RIGID_FACTOR - 1.0) * pb.depth * stiff)
+def linear_response(pb) -> tuple[float, float]:
+    """(A, k_out N/mm) of a continuum problem in the linear limit, as
+    :func:`sensor.mechanics.continuum.verify` reads them: the punch pushed 1 mm."""
     idx, val = continuum._prescribed(pb, 1.0)
     u = continuum._solve_dirichlet(pb.K, np.zeros(pb.K.shape[0]), idx, val)
     out = -float(pb.out_row @ u)
     return out, -float((pb.K @ u)[pb.punch_y].sum()) / out
 
 
+def linear_fe(design: Design, across: float, margin_mm: float) -> tuple[tuple, tuple]:
+    """(A, k_out) of the linear continuum on one mesh (``across`` elements across each hinge)
+    as it is, and with the knees' cores (``margin_mm`` behind their faces) made rigid."""
+    from skfem import Basis, asm
+    from skfem.models.elasticity import linear_elasticity
+
+    points, triangles = continuum.mesh_profile(design, across, 0.5, 2.0 * root_radius_mm(design))
+    pb = continuum._problem(design, points, triangles, False, 0.5, "bottom edge")
+    mesh = pb.basis.mesh
+    core = np.flatnonzero(knee_cores(design, mesh.p[:, mesh.t].mean(axis=1), margin_mm))
+    stiff = asm(linear_elasticity(pb.lam, pb.mu), Basis(mesh, pb.basis.elem, intorder=4, elements=core))
+    rigid = dataclasses.replace(pb, K=pb.K + (RIGID_FACTOR - 1.0) * pb.depth * stiff)
+    return linear_response(pb), linear_response(rigid)
+
+
 def study(name: str, across: float, margin_mm: float) -> dict:
     design = design_of(name)
     r = solve(build_beam_model(design), target_output_mm=LINEAR_LIMIT_FRACTION)
     beam = (r.amplification, r.k_out_N_per_mm)
-    elastic, rigid = linear_fe(design, across, None), linear_fe(design, across, margin_mm)
+    elastic, rigid = linear_fe(design, across, margin_mm)
     row = {"name": name}
     for i, q in enumerate(("A", "k_out")):
         row[f"rigid_knee_vs_elastic_{q}_pct"] = round(relative_error_pct(rigid[i], elastic[i]), 3)
