@@ -13,8 +13,9 @@ Boundary conditions follow the beam model (:func:`geometry.topology.build_beam_m
 
 * the base plate's bottom edge is clamped (the body stands on it); ``clamp="base plate"``
   clamps the whole base plate instead;
-* the input is a rigid punch ``punch_width_mm`` wide at the top plate's centre, pushed
-  straight down with no sideways motion or rotation (guided, as the X-stage did);
+* the input is a rigid punch ``punch_width_mm`` wide (default :data:`PUNCH_WIDTH_MM`) at the
+  top plate's centre, pushed straight down with no sideways motion or rotation (guided, as
+  the X-stage did);
 * the output is the mirror's vertical travel (platform underside centre; the top plate's
   underside for the basis) relative to the fiber tip on the base.
 
@@ -44,6 +45,17 @@ from sensor.errors import ConvergenceError, SensorInputError, SolverError
 #: scales with it). Consecutive levels differ by sqrt(2) in size, as Richardson needs.
 MESH_LEVELS = {"coarse": 3.0, "default": 6.0, "fine": 12.0}
 CLAMPS = ("bottom edge", "base plate")
+#: The punch's width (mm). DESIGN section 3's input is a downward force at the top plate's
+#: centre, as the beam model takes it: a point. A punch spreads it, and A grows with its
+#: width where the top plate takes most of the input travel (next to the toggle): on
+#: 03-03-12-4 (phi2 4 deg), 12 elements across, A is 2.1272 with a 0.1 mm punch, 2.1404 with
+#: 0.25, 2.1666 with 0.5 and 2.2403 with 1 mm (+5.3 %), k_out within 0.2 % (a uniform
+#: pressure over 0.5 mm gives A within 0.1 % of the punch's: the spread, not the punch's
+#: rigidity). Below 0.2 mm A falls about linearly with the width (6 across: 2.1348, 2.1295,
+#: 2.1247, 2.1223 at 0.2, 0.1, 0.05, 0.025 mm), so 0.1 mm stands about 0.5 % above the
+#: point's limit there (tests/mechanics/test_continuum.py); narrower punches press the plate
+#: past 100 MPa at 1 mm. A user's fixture that pushes over a wider contact sees a larger A.
+PUNCH_WIDTH_MM = 0.1
 
 
 @dataclass(frozen=True, eq=False)
@@ -191,7 +203,7 @@ def _split_at(loop: np.ndarray, xs: tuple[float, ...], y: float) -> np.ndarray:
     return np.array(out)
 
 
-def mesh_profile(design: Design, n_across: float, punch_width_mm: float = 0.5,
+def mesh_profile(design: Design, n_across: float, punch_width_mm: float = PUNCH_WIDTH_MM,
                  kerf_mm: float | None = None):
     """Linear triangles (points (N, 2), triangles (M, 3)) of the profile cut with ``kerf_mm``
     (see :func:`cut_profile_loops`), ``n_across`` elements across each hinge; vertices at
@@ -563,7 +575,7 @@ def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9,
 
 
 def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
-           nonlinear: bool = False, target_output_mm: float = 1.0, punch_width_mm: float = 0.5,
+           nonlinear: bool = False, target_output_mm: float = 1.0, punch_width_mm: float = PUNCH_WIDTH_MM,
            clamp: str = "bottom edge", kerf_mm: float | None = None,
            increments: int = 4) -> ContinuumResult:
     """Solve the continuum model of a design at one mesh level (see the module docstring).

@@ -75,8 +75,8 @@ def linear_fe(design: Design, across: float, margin_mm: float) -> tuple[tuple, t
     from skfem import Basis, asm
     from skfem.models.elasticity import linear_elasticity
 
-    points, triangles = continuum.mesh_profile(design, across, 0.5, 2.0 * root_radius_mm(design))
-    pb = continuum._problem(design, points, triangles, False, 0.5, "bottom edge")
+    points, triangles = continuum.mesh_profile(design, across, continuum.PUNCH_WIDTH_MM, 2.0 * root_radius_mm(design))
+    pb = continuum._problem(design, points, triangles, False, continuum.PUNCH_WIDTH_MM, "bottom edge")
     mesh = pb.basis.mesh
     core = np.flatnonzero(knee_cores(design, mesh.p[:, mesh.t].mean(axis=1), margin_mm))
     stiff = asm(linear_elasticity(pb.lam, pb.mu), Basis(mesh, pb.basis.elem, intorder=4, elements=core))

@@ -22,7 +22,7 @@ out (tests/mechanics/test_root_rule.py refits them).
 At 1 mm the continuum's state must also be stable (the tangent stiffness positive definite
 with the punch held; entries store it): where it is not, the part sways sideways before
 1 mm, and the travel where that starts is compared instead: it must lie between the beam
-model's with the input's rotation free and with it held (the 0.5 mm punch holds it partly).
+model's with the input's rotation free and with it held (the punch holds it partly).
 
 Known disagreements, kept as strict expected failures with their numbers (CUT_MISSES,
 CUT_MISSES_1MM, LINEAR_MISSES, NONLINEAR_MISSES): three drawn cells next to the toggle
@@ -221,7 +221,7 @@ def _beam_stable_to_mm(model, steps: int = 12) -> float:
 
 
 def _sway_is_bracketed(model, onset):
-    """The continuum's punch (0.5 mm wide, flat, held sideways) restrains the input's
+    """The continuum's punch (0.1 mm wide, flat, held sideways) restrains the input's
     rotation only partly, the beam model's guide fully: the continuum must start to sway
     between the beam model with the input's rotation free and with it held (the fixture's
     rotational stiffness decides where in that interval a real part sways)."""
