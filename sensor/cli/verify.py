@@ -19,7 +19,7 @@ def register(subparsers) -> None:
         description="Mesh the design's profile as cut (the DXF's outline and holes, every "
                     "re-entrant corner rounded by the jet: r = kerf / 2) with quadratic "
                     "triangles refined in the hinges, solve it in plane stress with the base "
-                    "clamped and the input a guided 0.1 mm punch (a point force), at three meshes (Richardson "
+                    "clamped and the input a guided 0.5 mm punch, at three meshes (Richardson "
                     "extrapolation), and set amplification, output stiffness, strain energy "
                     "and hinge stresses (one thickness inside each neck, and the peak at its "
                     "root fillets) beside the beam model's.")

@@ -113,18 +113,20 @@ def test_clamping_the_whole_base_plate_barely_moves_the_answer(sample_b):
     assert 1.0 < plate.k_out_N_per_mm / sample_b.k_out_N_per_mm < 1.015
 
 
-def test_the_punch_stands_for_the_point_force_of_the_beam_model():
-    """DESIGN section 3's input is a force at the top plate's centre, a point. Next to the
-    toggle (03-03-12-4, phi2 4 deg: the top plate takes most of the input travel), A falls
-    about linearly as the punch narrows, so halving the default punch moves A by about
-    its bias from the point's limit: under 0.3 %, a fifth of the issue's 1.5 % on A. The
-    0.5 mm punch the table used before moved it by 1.2 % (so the limit holds a bias of
-    about 2 %), and k_out barely sees the punch (within 0.1 %)."""
+def test_a_wider_contact_raises_A_next_to_the_toggle_but_not_k_out():
+    """How the input is pushed matters for A where the top plate takes most of the input
+    travel (03-03-12-4, phi2 4 deg: 80 % of it): the contact's compliance is part of the
+    input travel, and it shrinks as the contact widens, so A grows with the punch's width,
+    by more than the issue's 1.5 % from the reference's 0.5 mm (PUNCH_WIDTH_MM) to 1 mm
+    (measured: 2.14, 2.18 and 2.27 at 0.25, 0.5 and 1 mm). The output stiffness k_out = force / output
+    travel does not see where the input travel is measured: within 0.3 % (the plate's
+    bending under a spread load, a second-order change)."""
     d = DESIGNS["03-03-12-4"]
-    a, half, wide = (verify(d, mesh=QUICK, punch_width_mm=w) for w in (PUNCH_WIDTH_MM, PUNCH_WIDTH_MM / 2, 0.5))
-    assert abs(a.amplification / half.amplification - 1) < 0.003
-    assert abs(wide.amplification / verify(d, mesh=QUICK, punch_width_mm=0.25).amplification - 1) > 0.01
-    assert a.k_out_N_per_mm == pytest.approx(wide.k_out_N_per_mm, rel=1e-3)
+    narrow, ref, wide = (verify(d, mesh=QUICK, punch_width_mm=w) for w in (0.25, PUNCH_WIDTH_MM, 1.0))
+    assert PUNCH_WIDTH_MM == 0.5
+    assert narrow.amplification < ref.amplification < wide.amplification
+    assert wide.amplification / ref.amplification > 1.015
+    assert narrow.k_out_N_per_mm == pytest.approx(wide.k_out_N_per_mm, rel=3e-3)
 
 
 @pytest.mark.parametrize("kwargs,fragment", [

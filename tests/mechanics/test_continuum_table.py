@@ -221,7 +221,7 @@ def _beam_stable_to_mm(model, steps: int = 12) -> float:
 
 
 def _sway_is_bracketed(model, onset):
-    """The continuum's punch (0.1 mm wide, flat, held sideways) restrains the input's
+    """The continuum's punch (0.5 mm wide, flat, held sideways) restrains the input's
     rotation only partly, the beam model's guide fully: the continuum must start to sway
     between the beam model with the input's rotation free and with it held (the fixture's
     rotational stiffness decides where in that interval a real part sways)."""
