@@ -11,6 +11,9 @@ from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_j
 from sensor.cli.progress import add_quiet_argument, busy
 
 MESHES = ("coarse", "default", "fine")
+#: sensor.mechanics.continuum.PUNCH_WIDTH_MM, the reference's punch (not imported here: the
+#: continuum module is heavy for ``dacm --help``; tests/cli/test_verify_cli.py checks it).
+PUNCH_DEFAULT_MM = 0.5
 
 
 def register(subparsers) -> None:
@@ -19,7 +22,7 @@ def register(subparsers) -> None:
         description="Mesh the design's profile as cut (the DXF's outline and holes, every "
                     "re-entrant corner rounded by the jet: r = kerf / 2) with quadratic "
                     "triangles refined in the hinges, solve it in plane stress with the base "
-                    "clamped and the input a guided 0.5 mm punch, at three meshes (Richardson "
+                    "clamped and the input a guided punch (0.5 mm by default), at three meshes (Richardson "
                     "extrapolation), and set amplification, output stiffness, strain energy "
                     "and hinge stresses (one thickness inside each neck, and the peak at its "
                     "root fillets) beside the beam model's.")
@@ -36,6 +39,10 @@ def register(subparsers) -> None:
     p.add_argument("--kerf", type=float, metavar="MM",
                    help="cutting kerf: re-entrant corners rounded by a jet of this width "
                         "(default the design's kerf_mm, 0.8; 0: the drawn profile, sharp corners)")
+    p.add_argument("--punch-width", type=float, default=PUNCH_DEFAULT_MM, metavar="MM",
+                   help=f"width of the punch that pushes the input (default {PUNCH_DEFAULT_MM:g}); next to "
+                        "the toggle A grows with it (the contact's compliance is part of the input "
+                        "travel), k_out does not")
     add_output_arguments(p, "the stress-field picture <name>-verify.png")
     p.add_argument("--no-plots", action="store_true", help="do not write the picture")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
@@ -49,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from geometry.params import FIELD_RULES
     from geometry.topology import root_radius_mm
     from sensor.errors import UsageError
-    from sensor.mechanics.continuum import verification_to_dict, verify_design
+    from sensor.mechanics.continuum import punch_rule, verification_to_dict, verify_design
     from sensor.mechanics.plots import stress_field_figure
 
     if args.mesh not in MESHES:
@@ -58,12 +65,13 @@ def run(args: argparse.Namespace) -> int:
     design = design_from_args(args)
     if args.kerf is not None:
         design = design.replace(kerf_mm=args.kerf)
-    check_flags(args, {"target_output": travel_rule(design.height_mm)})
+    check_flags(args, {"target_output": travel_rule(design.height_mm), "punch_width": punch_rule(design)})
     paths = [] if args.no_plots else claim(args, [f"{design.name}-verify.png"])
     assert_feasible(design)
     with busy(f"verify {design.name}: continuum FE at three meshes", args.quiet):
         v = verify_design(design, mesh=args.mesh, plane_strain=args.plane_strain,
-                          nonlinear=args.nonlinear, target_output_mm=args.target_output)
+                          nonlinear=args.nonlinear, target_output_mm=args.target_output,
+                          punch_width_mm=args.punch_width)
     out = verification_to_dict(v)
     if paths:
         path = paths[0]
@@ -78,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
         print_json(out, paths and [make_out_dir(args.out) / paths[0].name])
         return 0
     print(f"{design.name} {out['profile']}: continuum FE ({out['mesh']['elements']} quadratic triangles, "
-          f"{out['mesh']['elements_across_hinge']:g} across each hinge) against the beam model")
+          f"{out['mesh']['elements_across_hinge']:g} across each hinge; input through a "
+          f"{args.punch_width:g} mm punch) against the beam model")
     unstable = out["beam"].get("unstable")
     print(f"  {'':<24}{'FE':>10}{'beam':>10}{'error %':>9}{'FE mesh error %':>17}")
     for key, label in (("amplification", "amplification A"), ("k_out_N_per_mm", "k_out (N/mm)"),

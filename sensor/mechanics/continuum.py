@@ -39,6 +39,7 @@ from numba import njit
 
 from geometry.layout import make_layout, make_parts
 from geometry.params import FIELD_RULES, Design, cut_note
+from geometry.validation import Number
 from sensor.errors import ConvergenceError, SensorInputError, SolverError
 
 #: Quadratic elements across each hinge's thickness, per mesh level (the rest of the body
@@ -57,6 +58,13 @@ CLAMPS = ("bottom edge", "base plate")
 #: 17.4 mm span shows why: under a 0.1 mm punch it is 2.3 % more compliant than under
 #: 0.5 mm, under 0.05 mm 0.8 % more again (elements of 0.025 mm).
 PUNCH_WIDTH_MM = 0.5
+
+
+def punch_rule(design: Design) -> Number:
+    """The rule of a punch width (mm): positive, at most the top plate's width."""
+    lay = make_layout(design)
+    return Number(0.0, 2.0 * (-float(lay.P3[0]) + design.link_width_mm), lo_open=True,
+                  unit="mm, at most the top plate's width")
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +87,7 @@ class ContinuumResult:
     ``points`` (N, 2), ``triangles`` (M, 3), ``displacement_mm`` (N, 2) and
     ``von_mises_MPa`` (M, 3, at each triangle's corners) are the fields for pictures.
     ``size_mm`` is the element size in the thinnest hinge; ``kerf_mm`` the kerf of the
-    profile solved (0: the drawing).
+    profile solved (0: the drawing); ``punch_width_mm`` the width of the input's punch.
     """
 
     amplification: float
@@ -93,6 +101,7 @@ class ContinuumResult:
     hinge_neck_stress_MPa: dict
     hinge_corner_stress_MPa: dict
     kerf_mm: float
+    punch_width_mm: float
     plane_strain: bool
     nonlinear: bool
     mesh: str
@@ -595,9 +604,9 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
                                "positive number of elements across a hinge")
     if clamp not in CLAMPS:
         raise SensorInputError(f"clamp = {clamp!r}: must be one of {', '.join(CLAMPS)}")
-    for name, value in (("target_output_mm", target_output_mm), ("punch_width_mm", punch_width_mm)):
-        if not (math.isfinite(value) and value > 0):
-            raise SensorInputError(f"{name} = {value!r}: must be a positive finite number (mm)")
+    if not (math.isfinite(target_output_mm) and target_output_mm > 0):
+        raise SensorInputError(f"target_output_mm = {target_output_mm!r}: must be a positive finite number (mm)")
+    punch_rule(design).check("punch_width_mm", punch_width_mm, SensorInputError)
     from geometry.topology import root_radius_mm
 
     if kerf_mm is not None:
@@ -642,7 +651,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         input_force_N=force, input_travel_mm=travel, output_travel_mm=out,
         hinge_stress_MPa=stress, hinge_peak_station_mm=station, hinge_neck_stress_MPa=neck,
         hinge_corner_stress_MPa=corner,
-        kerf_mm=float(kerf), plane_strain=plane_strain, nonlinear=nonlinear,
+        kerf_mm=float(kerf), punch_width_mm=float(punch_width_mm), plane_strain=plane_strain, nonlinear=nonlinear,
         mesh=str(mesh), elements_across=n_across, size_mm=min(design.used_thickness_mm) / n_across,
         n_elements=len(triangles), n_dofs=pb.K.shape[0], points=points, triangles=triangles,
         displacement_mm=u[pb.basis.nodal_dofs].T[: len(points)].copy(), von_mises_MPa=vm,
@@ -887,14 +896,17 @@ def _utilisation(design: Design, peak_MPa: dict | None) -> dict:
 
 def verify_design(design: Design, mesh: str | float = "default", plane_strain: bool = False,
                   nonlinear: bool = False, target_output_mm: float = 1.0,
-                  kerf_mm: float | None = None, clamp: str = "bottom edge") -> Verification:
+                  kerf_mm: float | None = None, clamp: str = "bottom edge",
+                  punch_width_mm: float = PUNCH_WIDTH_MM) -> Verification:
     """Continuum FE (three meshes, Richardson) and beam model of one design as cut with
     ``kerf_mm`` (default the design's own ``kerf_mm``; 0: the drawing), compared at
-    ``target_output_mm`` (linear: both in the linear limit, scaled to it)."""
+    ``target_output_mm`` (linear: both in the linear limit, scaled to it), the input pushed
+    through a punch ``punch_width_mm`` wide (see :data:`PUNCH_WIDTH_MM`)."""
     if kerf_mm is not None:
         design = design.replace(kerf_mm=kerf_mm)
     runs, conv = convergence_study(design, mesh, plane_strain=plane_strain, nonlinear=nonlinear,
-                                   target_output_mm=target_output_mm, clamp=clamp)
+                                   target_output_mm=target_output_mm, clamp=clamp,
+                                   punch_width_mm=punch_width_mm)
     fe = runs[-1]
     conv["hinge_peak_stress_MPa"] = {h: richardson([r.hinge_stress_MPa[h] for r in runs])
                                      for h in fe.hinge_stress_MPa}
@@ -947,7 +959,7 @@ def verification_to_dict(v: Verification) -> dict:
         "mesh": {"level": v.mesh, "elements_across_hinge": fe.elements_across,
                  "hinge_element_size_mm": fe.size_mm, "elements": fe.n_elements, "dofs": fe.n_dofs},
         "options": {"plane_strain": fe.plane_strain, "nonlinear": fe.nonlinear,
-                    "output_travel_mm": fe.output_travel_mm},
+                    "output_travel_mm": fe.output_travel_mm, "punch_width_mm": fe.punch_width_mm},
         "stability": None if fe.stable is None else {
             "stable": fe.stable, "negative_modes": fe.negative_modes},
     }

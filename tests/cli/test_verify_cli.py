@@ -7,6 +7,8 @@ import pytest
 
 from geometry.params import MATERIALS, preset, save_design
 from sensor.cli import main
+from sensor.cli.verify import PUNCH_DEFAULT_MM
+from sensor.mechanics.continuum import PUNCH_WIDTH_MM
 from tests.mechanics.make_continuum_table import BASIS_5N, DESIGN_5N, PAIRS, body
 
 
@@ -16,6 +18,8 @@ def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
                  "--out", str(tmp_path)]) == 0
     out = json.loads(capsys.readouterr().out)
     assert (out["kerf_mm"], out["profile"]) == (0.0, "as drawn (kerf 0: sharp hinge roots)")
+    # the CLI's default punch is the reference's (it does not import the continuum module)
+    assert out["options"]["punch_width_mm"] == PUNCH_WIDTH_MM == PUNCH_DEFAULT_MM
     for side in ("fe", "beam"):
         for key in ("amplification", "k_out_N_per_mm", "strain_energy_mJ", "hinge_stress_MPa",
                     "hinge_peak_stress_MPa"):
@@ -48,6 +52,8 @@ def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
     (["--target-output", "0"], "--target-output = 0.0"),
     (["--kerf", "-1"], "--kerf = -1.0"),
     (["--kerf", "nan"], "--kerf = nan"),
+    (["--punch-width", "0"], "--punch-width = 0.0"),
+    (["--preset", "basis", "--punch-width", "30"], "--punch-width = 30.0"),
     (["--preset", "basis", "--phi1", "20"], "--phi1 cannot be combined with --preset"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, fragment, capsys):

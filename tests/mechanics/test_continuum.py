@@ -134,6 +134,8 @@ def test_a_wider_contact_raises_A_next_to_the_toggle_but_not_k_out():
     ({"clamp": "top"}, "clamp = 'top'"),
     ({"target_output_mm": -1.0}, "target_output_mm = -1.0"),
     ({"kerf_mm": math.nan}, "kerf_mm = nan"),
+    ({"punch_width_mm": 0.0}, "punch_width_mm = 0.0"),
+    ({"punch_width_mm": 30.0}, "punch_width_mm = 30.0"),
 ])
 def test_bad_options_are_clear_errors(kwargs, fragment):
     with pytest.raises(SensorInputError, match=fragment.replace("(", r"\(")):
