@@ -55,8 +55,8 @@ CLAMPS = ("bottom edge", "base plate")
 #: across, A is 2.1272 with a 0.1 mm punch, 2.1404 with 0.25, 2.1666 with 0.5 and 2.2403
 #: with 1 mm, k_out within 0.2 % (a uniform pressure over 0.5 mm gives A within 0.1 % of the
 #: punch's: it is the spread, not the punch's rigidity). A plain 2 mm plate clamped over a
-#: 17.4 mm span shows why: under a 0.1 mm punch it is 2.3 % more compliant than under
-#: 0.5 mm, under 0.05 mm 0.8 % more again (elements of 0.025 mm).
+#: 17.4 mm span (plane strain, one run) shows why: under a 0.1 mm punch it is 2.3 % more
+#: compliant than under 0.5 mm, under 0.05 mm 0.8 % more again (elements of 0.025 mm).
 PUNCH_WIDTH_MM = 0.5
 
 
