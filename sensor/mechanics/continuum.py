@@ -380,6 +380,15 @@ def _prescribed(pb: _Problem, travel_mm: float):
     return idx, val
 
 
+def unit_travel_state(pb: _Problem) -> tuple[np.ndarray, float, float]:
+    """The linear state at 1 mm of input travel (the punch pushed down): displacements, the
+    mirror's output travel down (mm; ``out_row`` reads it up-positive) and the punch's force
+    (N)."""
+    idx, val = _prescribed(pb, 1.0)
+    u = _solve_dirichlet(pb.K, np.zeros(pb.K.shape[0]), idx, val)
+    return u, -float(pb.out_row @ u), -float((pb.K @ u)[pb.punch_y].sum())
+
+
 def _solve_dirichlet(K, rhs, idx, val, u0=None):
     """Solve K u = rhs with u[idx] = val (later entries win); returns u."""
     n = K.shape[0]
@@ -618,9 +627,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     points, triangles = mesh_profile(design, n_across, punch_width_mm, rounding)
     pb = _problem(design, points, triangles, plane_strain, punch_width_mm, clamp)
     triangles = pb.basis.mesh.t.T      # skfem sorts each triangle's corners: use its order
-    idx, val = _prescribed(pb, 1.0)
-    u = _solve_dirichlet(pb.K, np.zeros(pb.K.shape[0]), idx, val)
-    out_lin = -float(pb.out_row @ u)
+    u, out_lin, _ = unit_travel_state(pb)
     if not out_lin > 0:
         raise SensorInputError(f"design {design.name!r}: the mirror moves up ({out_lin:.3g} mm per mm "
                                "of input): no output travel to report")

@@ -61,14 +61,13 @@ def design_of(name: str) -> Design:
     return design_from_dict(ENTRIES[name]["design"]) if name in ENTRIES else DESIGNS[name]
 
 
-def cores(design: Design, centres: np.ndarray, parts: tuple, margin_mm: float) -> np.ndarray:
-    """Which triangles (centres (2, M), mm) lie in the given parts (each a tuple of part
-    names, unioned) more than ``margin_mm`` behind their faces."""
+def cores(polygons: dict, centres: np.ndarray, parts: tuple, margin_mm: float) -> np.ndarray:
+    """Which triangles (centres (2, M), mm) lie in the given parts (each a tuple of names of
+    ``polygons``, the body's parts, unioned) more than ``margin_mm`` behind their faces."""
     from shapely import contains_xy
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
-    polygons = {p.name: p.polygon for p in make_parts(make_layout(design))}
     inside = np.zeros(centres.shape[1], bool)
     for names in parts:
         if all(n in polygons for n in names):   # the basis has no middle links or platform
@@ -80,10 +79,8 @@ def cores(design: Design, centres: np.ndarray, parts: tuple, margin_mm: float) -
 def linear_response(pb) -> tuple[float, float]:
     """(A, k_out N/mm) of a continuum problem in the linear limit, as
     :func:`sensor.mechanics.continuum.verify` reads them: the punch pushed 1 mm."""
-    idx, val = continuum._prescribed(pb, 1.0)
-    u = continuum._solve_dirichlet(pb.K, np.zeros(pb.K.shape[0]), idx, val)
-    out = -float(pb.out_row @ u)
-    return out, -float((pb.K @ u)[pb.punch_y].sum()) / out
+    _, out, force = continuum.unit_travel_state(pb)
+    return out, force / out
 
 
 def beam_response(model: BeamModel, rigid: tuple) -> tuple[float, float]:
@@ -104,6 +101,7 @@ def study(name: str, across: float, margin_mm: float) -> dict:
     pb = continuum._problem(design, points, triangles, False, continuum.PUNCH_WIDTH_MM, "bottom edge")
     mesh = pb.basis.mesh
     centres = mesh.p[:, mesh.t].mean(axis=1)
+    polygons = {p.name: p.polygon for p in make_parts(make_layout(design))}
 
     def rigid_fe(core):
         stiff = asm(linear_elasticity(pb.lam, pb.mu), Basis(mesh, pb.basis.elem, intorder=4,
@@ -115,7 +113,7 @@ def study(name: str, across: float, margin_mm: float) -> dict:
            "beam_vs_fe_k_out_pct": round(relative_error_pct(beam[1], fe[1]), 3)}
     every, members = np.zeros(centres.shape[1], bool), ()
     for group, (parts, names) in GROUPS.items():
-        core = cores(design, centres, parts, margin_mm)
+        core = cores(polygons, centres, parts, margin_mm)
         if not core.any():
             continue
         every, members = every | core, members + names
