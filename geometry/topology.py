@@ -58,9 +58,9 @@ READABLE_SCHEMAS = (SCHEMA, "dacm-beam-model/1")
 MEMBER_KINDS = ("hinge", "link", "rigid")
 DOF_NAMES = ("x", "y", "rz")
 
-#: The hinge root rule of the part as cut (DESIGN sections 14 and 16): four constants, of
-#: which three (``ROOT_DEPTH_PER_THICKNESS``, ``ROOT_DEPTH_PER_LEAN``,
-#: ``FILLET_SPREAD_SLOPE``) are fitted once, by least squares on k_out in the linear limit,
+#: The hinge root rule of the part as cut (DESIGN sections 14 and 16): four constants
+#: (``ROOT_DEPTH_PER_THICKNESS``, ``ROOT_DEPTH_PER_LEAN``, ``FILLET_SPREAD_SLOPE``,
+#: ``ROOT_BODY_DEPTHS``) fitted once, by least squares on k_out in the linear limit,
 #: to the continuum FE of cut and drawn profiles that are not held out
 #: (tests/mechanics/data/continuum_table.json: kerf 0 to 1.2 mm, hinges 0.25-1.5 mm, faces
 #: leaning 0-34 deg; tests/mechanics/test_root_rule.py refits them).
@@ -75,14 +75,14 @@ DOF_NAMES = ("x", "y", "rz")
 #: and t, not with the fillet's width), less in a body that is not much deeper than that
 #: (a 2 mm plate or knee block under a 1 mm hinge): ``ROOT_BODY_DEPTHS`` sets where that
 #: begins (:func:`root_depth_mm`).
-ROOT_DEPTH_PER_THICKNESS = 0.326
-ROOT_DEPTH_PER_LEAN = 0.911
-ROOT_BODY_DEPTHS = 0.56
+ROOT_DEPTH_PER_THICKNESS = 0.319
+ROOT_DEPTH_PER_LEAN = 1.142
+ROOT_BODY_DEPTHS = 0.447
 #: A root fillet widens the neck faster than the bending stress can spread into it (plane
 #: sections do not stay plane where the section grows steeply): each side's fillet counts
 #: up to ``FILLET_SPREAD_SLOPE`` x the distance from where it meets the neck (a load-spread
 #: angle of about 15 deg), the rest of the arc carries little.
-FILLET_SPREAD_SLOPE = 0.256
+FILLET_SPREAD_SLOPE = 0.268
 #: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
 #: points and taken linear between them: the flexibility integrals of a quarter circle
 #: sampled at 8 points are within 0.1 % of the exact arc's).
@@ -325,15 +325,22 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
                                           top_l, top_r)}
 
     # the top plate bends between the top hinges: two members along its centre line, with
-    # rigid offsets up to the input point and down to the hinge roots on its underside;
-    # knee blocks and the platform are compact enough to be rigid bodies
+    # rigid offsets up to the input point and down to the hinge roots on its underside.
+    # A knee block carries the side chain's force from its bottom hinge to its top one: two
+    # stubs as wide as the block from its faces to its centre, where the middle link's
+    # root joins it (a rigid arm); their axial and shear compliance counts next to thick
+    # hinges' (DESIGN section 16)
+    knee_c_l = node(((lay.P1[0] + lay.P2[0]) / 2, (lay.P1[1] + lay.P2[1]) / 2))
+    knee_c_r = node(mirrored(nodes[knee_c_l]))
     members += [("rigid", inp, plate_mid, d.plate_thickness_mm, 0, "top plate"),
                 ("link", plate_mid, plate_l, d.plate_thickness_mm, 0, "top plate left"),
                 ("link", plate_mid, plate_r, d.plate_thickness_mm, 0, "top plate right"),
                 ("rigid", plate_l, top_l, d.plate_thickness_mm, 0, "top plate"),
                 ("rigid", plate_r, top_r, d.plate_thickness_mm, 0, "top plate"),
-                ("rigid", knee_lo_l, knee_hi_l, d.knee_width_mm, 0, "left knee"),
-                ("rigid", knee_lo_r, knee_hi_r, d.knee_width_mm, 0, "right knee")]
+                ("link", knee_lo_l, knee_c_l, d.knee_width_mm, 0, "left knee"),
+                ("link", knee_c_l, knee_hi_l, d.knee_width_mm, 0, "left knee"),
+                ("link", knee_lo_r, knee_c_r, d.knee_width_mm, 0, "right knee"),
+                ("link", knee_c_r, knee_hi_r, d.knee_width_mm, 0, "right knee")]
     if d.is_basis:
         out = node(lay.output_point)
         members.append(("rigid", plate_mid, out, d.plate_thickness_mm, 0, "top plate"))
@@ -348,8 +355,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         mid = node((0.0, float(lay.Q[1])))
         plat_l = node((float(lay.Q[0]) + rise * body_depth[10], float(lay.Q[1])))
         plat_r = node((-float(lay.Q[0]) - rise * body_depth[11], float(lay.Q[1])))
-        members += [("rigid", knee_lo_l, k_l, d.knee_width_mm, 0, "left knee"),
-                    ("rigid", knee_lo_r, k_r, d.knee_width_mm, 0, "right knee"),
+        members += [("rigid", knee_c_l, k_l, d.knee_width_mm, 0, "left knee"),
+                    ("rigid", knee_c_r, k_r, d.knee_width_mm, 0, "right knee"),
                     ("rigid", mid, out, d.platform_thickness_mm, 0, "platform"),
                     ("link", mid, plat_l, d.platform_thickness_mm, 0, "platform left"),
                     ("link", mid, plat_r, d.platform_thickness_mm, 0, "platform right"),
@@ -417,7 +424,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         E_MPa=d.material.E_MPa,
         nu=d.material.nu,
         material_name=d.material.name,
-        labels={"input": inp, "output": out, "base left": base_l, "base right": base_r},
+        labels={"input": inp, "output": out, "base left": base_l, "base right": base_r,
+                "left knee": knee_c_l, "right knee": knee_c_r},
         profile_mm=tuple(shape[i][0] if i in shape else None for i in range(m)),
         neck_mm=neck,
         root_radius_mm=radius,

@@ -775,7 +775,8 @@ def convergence_study(design: Design, mesh: str | float = "default", **options):
 #: side chains that move the knee or the middle branch that turns its motion into output.
 KNEE_MOTION = ("knee_outward_per_input", "knee_rotation_per_input_rad_per_mm")
 #: How far inside the knee block's edges (mm) the FE's knee motion is read: the hinge roots
-#: deform the block's rim, its core moves as a rigid body (as the beam model's knee does).
+#: deform the block's rim, its core moves nearly as a rigid body (the beam model's knee
+#: bends only as two stubs as wide as the block).
 KNEE_MARGIN_MM = 0.5
 
 
@@ -813,10 +814,10 @@ def knee_motion_fe(design: Design, fe: ContinuumResult) -> dict:
 
 
 def knee_motion_beam(design: Design, model, result) -> dict:
-    """The left knee's motion per mm of input travel in the beam model (a rigid body there):
-    the keys of :func:`knee_motion_fe` but the residual."""
+    """The left knee's motion per mm of input travel in the beam model (its centre node, where
+    the block's two stubs meet): the keys of :func:`knee_motion_fe` but the residual."""
     centre, _ = _knee(design)
-    node = model.member_nodes[model.member_name.index("left knee"), 0]
+    node = model.labels["left knee"]
     u = result.deformed_nodes[node] - model.nodes[node]
     turn = result.node_rotation_rad[node]
     ux = u[0] - turn * (centre[1] - model.nodes[node, 1])

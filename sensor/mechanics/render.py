@@ -4,8 +4,8 @@ coloured by strain energy density (``dacm render``).
 From beam model to displacement field. Every point of the body belongs to one part of the
 layout (:func:`geometry.layout.make_parts`, the parts the CAD profile is the union of):
 
-* a plate, knee block, platform or fiber post moves rigidly with a model node of its rigid
-  body: x = x_n + R(theta_n) (X - X_n);
+* a plate, platform or fiber post moves rigidly with a model node of its rigid body, a knee
+  block with the node at its centre: x = x_n + R(theta_n) (X - X_n);
 * a hinge or a link follows its compliant member from node a to node b. In the member's
   chord frame (chord rotation alpha, end rotations theta_a' = theta_a - alpha and
   theta_b' = theta_b - alpha relative to the chord, as in the solver) the centre line at
@@ -146,6 +146,12 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
     rigid = [i for i, p in enumerate(parts) if p.axis is None]
     for i in rigid:
         on = np.flatnonzero(polygon_distance(parts[i].polygon, model.nodes) <= ON_PART_TOL_MM)
+        if parts[i].kind == "block" and len(on):
+            # a knee block bends as two short stubs in the beam model, by a fraction of a
+            # percent of its motion: drawn moving rigidly with the node at its centre
+            centre = parts[i].polygon.mean(axis=0)
+            motions[i] = PartMotion(int(on[np.argmin(np.linalg.norm(model.nodes[on] - centre, axis=1))]), -1, -1, -1)
+            continue
         moving = {int(body[n]) for n in on if free[body[n]]}
         if len(moving) > 1 or (moving and len(moving) != len({int(body[n]) for n in on})):
             raise SensorInputError(f"layout part {parts[i].name!r} touches nodes of different rigid "

@@ -1,12 +1,12 @@
 """The root rule of the part as cut is the least-squares fit to the continuum FE (DESIGN
 sections 14 and 16).
 
-Three constants of :mod:`geometry.topology` (``ROOT_DEPTH_PER_THICKNESS``,
-``ROOT_DEPTH_PER_LEAN``, ``FILLET_SPREAD_SLOPE``) are fitted, by least squares on the
+The four constants of :mod:`geometry.topology`'s root rule (``ROOT_DEPTH_PER_THICKNESS``,
+``ROOT_DEPTH_PER_LEAN``, ``FILLET_SPREAD_SLOPE``, ``ROOT_BODY_DEPTHS``) are fitted, by least squares on the
 relative k_out error in the linear limit, to the entries of
 tests/mechanics/data/continuum_table.json that are not held out. The test refits them
 (Nelder-Mead from the stored values, each constant not negative) and accepts the stored constants when their RMS error
-is within 0.1 percentage point of the refit's (the three constants are correlated, so their
+is within 0.1 percentage point of the refit's (the constants are correlated, so their
 values can move more than the fit's quality does). The held-out entries are checked against
 the issue's targets by tests/mechanics/test_continuum_table.py with the stored constants.
 
@@ -26,7 +26,7 @@ from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
 from sensor.mechanics.solver import solve
 from tests.mechanics.test_continuum_table import ENTRIES
 
-CONSTANTS = ("ROOT_DEPTH_PER_THICKNESS", "ROOT_DEPTH_PER_LEAN", "FILLET_SPREAD_SLOPE")
+CONSTANTS = ("ROOT_DEPTH_PER_THICKNESS", "ROOT_DEPTH_PER_LEAN", "FILLET_SPREAD_SLOPE", "ROOT_BODY_DEPTHS")
 KT_CONSTANTS = ("KT_SCALE", "KT_EXPONENT")
 FITTED = sorted(n for n, row in ENTRIES.items() if not row["held_out"])
 
