@@ -136,16 +136,22 @@ _ROOTS = {1: "base plate", 2: "left knee", 3: "left knee", 4: "top plate left", 
 
 
 @functools.lru_cache(maxsize=8)
-def _free_pairs(names: tuple[str, ...], kinds: tuple[str, ...], hinges: tuple[int, ...]):
+def _free_pairs(names: tuple[str, ...], kinds: tuple[str, ...], hinges: tuple[int, ...],
+                bodies: tuple[str, ...]):
     """Index pairs (i < j) of parts not joined by design: a hinge is joined to its link and
     its root body, a link to its own hinges' roots, hinges rooted in one body to each
-    other, and the fiber post to the base plate. Cached per topology."""
-    idx = {n: i for i, n in enumerate(names)}
-    joined = set()
+    other, the halves of a body to each other, and the fiber post to the base plate.
+    Parts and bodies are named (a knee block's two halves are one body). Cached per
+    topology."""
+    parts_of: dict[str, list[int]] = {}
+    for i, (n, b) in enumerate(zip(names, bodies)):
+        parts_of.setdefault(n, []).append(i)
+        if b != n:
+            parts_of.setdefault(b, []).append(i)
+    joined = {(i, j) for group in parts_of.values() for i in group for j in group if i < j}
 
     def join(a, b):
-        if a in idx and b in idx:
-            joined.add((min(idx[a], idx[b]), max(idx[a], idx[b])))
+        joined.update((min(i, j), max(i, j)) for i in parts_of.get(a, ()) for j in parts_of.get(b, ()) if i != j)
 
     join("fiber post", "base plate")
     join("top plate left", "top plate right")
@@ -183,7 +189,8 @@ def check_designs(designs) -> list[FeasibilityReport]:
         shapes.append((lay, parts, _free_polygons(parts)))
     groups: dict[tuple, list[int]] = {}
     for n, (_, parts, _) in enumerate(shapes):
-        key = (tuple(p.name for p in parts), tuple(p.kind for p in parts), tuple(p.hinge for p in parts))
+        key = (tuple(p.name for p in parts), tuple(p.kind for p in parts), tuple(p.hinge for p in parts),
+               tuple(p.body for p in parts))
         groups.setdefault(key, []).append(n)
     near: list = [None] * len(shapes)
     for key, members in groups.items():

@@ -27,10 +27,11 @@ from geometry.params import Design
 class Part:
     """One piece of the profile: a convex polygon (counter-clockwise, mm).
 
-    ``kind`` is "plate", "block", "platform", "post", "link" or "hinge"; ``body`` names the
-    rigid body a plate/block belongs to, or the member a link/hinge stands for; ``hinge`` is
-    the thesis hinge number (0 if not a hinge); ``axis`` is the centre line (2, 2) of a
-    link/hinge, and ``width`` its in-plane thickness.
+    ``kind`` is "plate", "block", "platform", "post", "link" or "hinge"; ``hinge`` is the
+    thesis hinge number (0 if not a hinge); ``axis`` is the centre line (2, 2) of a part that
+    bends (a link, a hinge, a half of a plate, of the platform or of a knee block), and
+    ``width`` its in-plane thickness; ``body`` names the body a half belongs to (the part's
+    own name if it is whole).
     """
 
     name: str
@@ -39,6 +40,11 @@ class Part:
     hinge: int = 0
     axis: np.ndarray | None = None
     width: float = 0.0
+    body: str = ""
+
+    def __post_init__(self):
+        if not self.body:
+            object.__setattr__(self, "body", self.name)
 
 
 @dataclass(frozen=True)
@@ -181,8 +187,10 @@ def make_parts(lay: Layout) -> list[Part]:
              np.array([[0.0, yc], [lay.P3[0], yc]]), d.plate_thickness_mm),
         Part("top plate right", "plate", _rect(0.0, lay.y_top, top_half, H), 0,
              np.array([[0.0, yc], [-lay.P3[0], yc]]), d.plate_thickness_mm),
-        Part("left knee", "block", _rect(-W / 2, lay.P1[1], -W / 2 + d.knee_width_mm, lay.P2[1])),
-        Part("right knee", "block", _rect(W / 2 - d.knee_width_mm, lay.P1[1], W / 2, lay.P2[1])),
+        # a knee block bends between its hinges (the beam model's two stubs): two halves, each
+        # along its centre line from a face to the block's centre
+        *_knee_halves("left knee", -W / 2, lay),
+        *_knee_halves("right knee", W / 2 - d.knee_width_mm, lay),
         Part("fiber post", "post", _rect(-d.fiber_post_width_mm / 2, lay.y_base - d.plate_thickness_mm / 2,
                                          d.fiber_post_width_mm / 2, lay.post_top)),
     ]
@@ -205,6 +213,15 @@ def make_parts(lay: Layout) -> list[Part]:
                           nodes[1:3], d.link_width_mm))
         parts.append(Part(f"hinge {h2}", "hinge", rooted_neck(nodes[3], nodes[2], t2, face2), h2, nodes[2:4], t2))
     return parts
+
+
+def _knee_halves(body: str, x0: float, lay: Layout) -> list[Part]:
+    """A knee block from x0 (mm, its left edge) as its lower and upper halves."""
+    w = lay.design.knee_width_mm
+    xc, (y0, y1) = x0 + w / 2, (lay.P1[1], lay.P2[1])
+    ym = (y0 + y1) / 2
+    return [Part(f"{body} {half}", "block", _rect(x0, lo, x0 + w, hi), 0, np.array([[xc, lo], [xc, hi]]), w, body)
+            for half, lo, hi in (("lower", y0, ym), ("upper", ym, y1))]
 
 
 #: How deep a hinge's root reaches into the body it joins, past the face, in neck widths.

@@ -783,7 +783,7 @@ KNEE_MARGIN_MM = 0.5
 def _knee(design: Design) -> tuple[np.ndarray, np.ndarray]:
     """The left knee block: its centre and its (lower-left, upper-right) corners, mm."""
     lay = make_layout(design)
-    poly = next(p.polygon for p in make_parts(lay) if p.name == "left knee")
+    poly = np.vstack([p.polygon for p in make_parts(lay) if p.body == "left knee"])
     lo, hi = poly.min(axis=0), poly.max(axis=0)
     return (lo + hi) / 2, np.array([lo, hi])
 

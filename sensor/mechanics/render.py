@@ -4,11 +4,12 @@ coloured by strain energy density (``dacm render``).
 From beam model to displacement field. Every point of the body belongs to one part of the
 layout (:func:`geometry.layout.make_parts`, the parts the CAD profile is the union of):
 
-* a plate, platform or fiber post moves rigidly with a model node of its rigid body, a knee
-  block with the node at its centre: x = x_n + R(theta_n) (X - X_n);
-* a hinge or a link follows its compliant member from node a to node b. In the member's
-  chord frame (chord rotation alpha, end rotations theta_a' = theta_a - alpha and
-  theta_b' = theta_b - alpha relative to the chord, as in the solver) the centre line at
+* the base plate and the fiber post move rigidly with a model node of their rigid body:
+  x = x_n + R(theta_n) (X - X_n);
+* a hinge, a link, or a half of the top plate, the platform or a knee block follows its
+  compliant member from node a to node b. In the member's chord frame (chord rotation
+  alpha, end rotations theta_a' = theta_a - alpha and theta_b' = theta_b - alpha relative
+  to the chord, as in the solver) the centre line at
   xi = s / L0 is stretched uniformly (constant N) and deflected by the cubic Hermite
   interpolation of the end rotations,
   w(xi) = L [(xi - 2 xi^2 + xi^3) theta_a' + (xi^3 - xi^2) theta_b'],
@@ -146,12 +147,6 @@ def part_motions(parts: list[Part], model: BeamModel) -> list[PartMotion]:
     rigid = [i for i, p in enumerate(parts) if p.axis is None]
     for i in rigid:
         on = np.flatnonzero(polygon_distance(parts[i].polygon, model.nodes) <= ON_PART_TOL_MM)
-        if parts[i].kind == "block" and len(on):
-            # a knee block bends as two short stubs in the beam model, by a fraction of a
-            # percent of its motion: drawn moving rigidly with the node at its centre
-            centre = parts[i].polygon.mean(axis=0)
-            motions[i] = PartMotion(int(on[np.argmin(np.linalg.norm(model.nodes[on] - centre, axis=1))]), -1, -1, -1)
-            continue
         moving = {int(body[n]) for n in on if free[body[n]]}
         if len(moving) > 1 or (moving and len(moving) != len({int(body[n]) for n in on})):
             raise SensorInputError(f"layout part {parts[i].name!r} touches nodes of different rigid "
@@ -301,7 +296,7 @@ def _step_down(scale: float) -> float:
 def rigid_outlines(parts: list[Part], motions: list[PartMotion], model: BeamModel,
                    result: SolveResult) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """(name, outline at rest (k, 2), displacement of its corners (k, 2)) of every rigid
-    part, and of the plate and platform halves, which bend a little with their members
+    part, and of the plate, platform and knee halves, which bend a little with their members
     (their corners follow the member's field)."""
     X0, x, th = model.nodes, result.deformed_nodes, result.node_rotation_rad
 
@@ -312,7 +307,7 @@ def rigid_outlines(parts: list[Part], motions: list[PartMotion], model: BeamMode
         return _member(p.polygon, X0[a], X0[b], x[a], x[b], float(th[a]), float(th[b]))
 
     return [(p.name, p.polygon, moved(p, mo)) for p, mo in zip(parts, motions)
-            if mo.member < 0 or p.kind in ("plate", "platform")]
+            if mo.member < 0 or p.kind in ("plate", "platform", "block")]
 
 
 def overlapping_parts(outlines, scale: float) -> list[tuple[str, str]]:

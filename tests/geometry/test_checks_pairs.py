@@ -19,7 +19,7 @@ def test_near_pairs_hold_the_closest_and_overlapping_pairs(hinges):
             parts = make_parts(make_layout(make_design(phi1, phi2, hinges)))
             poly = _free_polygons(parts)
             I, J = _free_pairs(tuple(p.name for p in parts), tuple(p.kind for p in parts),
-                               tuple(p.hinge for p in parts))
+                               tuple(p.hinge for p in parts), tuple(p.body for p in parts))
             dist, overlap = _pair_distances(poly[I], poly[J])
             near = _near_pairs(poly[None], I, J)[0]
             assert near[overlap].all()

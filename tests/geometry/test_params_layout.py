@@ -142,7 +142,7 @@ def test_hinge_numbering_follows_figure48():
 def test_link_angles_equal_phi1_phi2(phi1, phi2):
     m = build_beam_model(make_design(phi1, phi2))
     for i, kind in enumerate(m.member_kind):
-        if kind != "link" or m.member_name[i].startswith(("top plate", "platform")):
+        if not m.member_name[i].endswith(" link"):   # the chains' links, not plates or knees
             continue
         a, b = m.nodes[m.member_nodes[i]]
         v = b - a
@@ -170,7 +170,7 @@ def _rigid_linkage_amplification(design):
     m = build_beam_model(design)
     lay = make_layout(design)
     # unknowns: knee (ux, uy) x 2, platform uy, each link (ux, uy, th); top uy = -1 given
-    links = [i for i, k in enumerate(m.member_kind) if k == "link"]
+    links = [i for i, n in enumerate(m.member_name) if n.endswith(" link")]   # the chains' links
     n_unk = 5 + 3 * len(links)
     rows, rhs = [], []
 

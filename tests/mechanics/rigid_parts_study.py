@@ -1,14 +1,15 @@
 """Where the beam model's errors in A sit: each group of parts made rigid in both models.
 
-The beam model takes the knee blocks and the base plate as rigid bodies, the links, the top
-plate and the platform as beams, and puts the compliance of the hinge roots into the
-hinges (each reaches its root depth past the face, :func:`geometry.topology.root_depth_mm`).
+The beam model takes the base plate as a rigid body, the links, the top plate, the
+platform and the knee blocks (two stubs each) as beams, and puts the compliance of the
+hinge roots into the hinges (each reaches its root depth past the face,
+:func:`geometry.topology.root_depth_mm`).
 This study solves the linear continuum of a body on one mesh (``--across`` quadratic
 elements across each hinge) as it is, then with one group of parts at a time (knees, side
 links, middle links, top plate, platform, base plate) 1000 x stiffer except a rim
 ``--margin`` mm deep behind their faces (a rigid core to within 0.1 % of its compliance),
 then with all of them; the beam model is solved with the same groups' members rigid (the
-knees and the base plate are rigid in it already). Where a group changes A differently in
+base plate is rigid in it already). Where a group changes A differently in
 the two, the beam model's account of that group (or of the roots in it: the rim keeps
 the hinges' roots elastic to ``--margin``, the beam's roots reach 0.11-0.14 mm past a face
 for 0.3 mm hinges, 0.51 mm for a 1.4 mm hinge leaning 22 deg) is where A goes wrong; with
@@ -46,7 +47,8 @@ BODIES = (sorted(LINEAR_MISSES) + sorted(CUT_MISSES)
 #: Group -> (the continuum's parts, each tuple unioned before its rim is taken off, and the
 #: beam model's members of the same parts).
 GROUPS = {
-    "knees": ((("left knee",), ("right knee",)), ()),
+    "knees": ((("left knee lower", "left knee upper"), ("right knee lower", "right knee upper")),
+              ("left knee", "right knee")),
     "side links": (tuple((f"{s} link",) for s in ("left lower", "left upper", "right upper", "right lower")),
                    ("left lower link", "left upper link", "right upper link", "right lower link")),
     "middle links": ((("left middle link",), ("right middle link",)), ("left middle link", "right middle link")),

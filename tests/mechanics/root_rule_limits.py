@@ -1,7 +1,7 @@
 """How close the root rule's form can come to the issue's targets, whatever its constants.
 
-The three fitted constants of :mod:`geometry.topology` (``ROOT_DEPTH_PER_THICKNESS``,
-``ROOT_DEPTH_PER_LEAN``, ``FILLET_SPREAD_SLOPE``) are searched (Nelder-Mead from three
+The four fitted constants of :mod:`geometry.topology` (``ROOT_DEPTH_PER_THICKNESS``,
+``ROOT_DEPTH_PER_LEAN``, ``FILLET_SPREAD_SLOPE``, ``ROOT_BODY_DEPTHS``) are searched (Nelder-Mead from three
 starts, each constant not negative) for the smallest worst miss over every continuum-table
 entry (held-out ones included: a bound on the rule's form, not a fit) and drawn case in the
 linear limit: max over the bodies of max(|k_out error| / 3 %, |A error| / 1.5 %). Below 1
