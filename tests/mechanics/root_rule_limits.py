@@ -65,7 +65,7 @@ def main() -> None:
     stored = np.array([getattr(topology, n) for n in CONSTANTS])
     runs = [minimize(worst, x0, method="Nelder-Mead", bounds=[(0.0, None)] * len(CONSTANTS),
                      options={"xatol": 2e-3, "fatol": 1e-3, "maxiter": 120})
-            for x0 in (stored, stored * [1.25, 0.75, 1.0], stored * [0.75, 1.25, 1.0])]
+            for x0 in (stored, stored * [1.25, 0.75, 1.0, 1.0], stored * [0.75, 1.25, 1.0, 1.0])]
     best = min(runs, key=lambda r: r.fun)
     print(json.dumps({
         "bodies": len(BODIES), "targets_pct": TARGETS_PCT,
