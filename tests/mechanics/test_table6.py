@@ -2,8 +2,8 @@
 fitted to the continuum FE, not to the thesis; one effective parameter, delrin's modulus, is
 calibrated on the basis specimen as cut to its measured sensitivity; samples A and B are
 then predicted as cut without retuning. Measured here (sensitivity / SE / H against the
-measured column): basis 0.0 % / +10.8 % / +10.8 %, sample A +6.4 % / -13.2 % / -5.0 %,
-sample B -24.5 % / +16.4 % / +9.8 %: B's sensitivity 0.5 points inside the 25 %."""
+measured column): basis 0.0 % / +10.8 % / +10.8 %, sample A +6.5 % / -13.2 % / -5.0 %,
+sample B -24.6 % / +16.9 % / +10.2 %: B's sensitivity 0.4 points inside the 25 %."""
 
 import pytest
 
@@ -26,7 +26,7 @@ def test_delrin_modulus_is_the_calibration_on_the_measured_basis():
     0.227 mm/N gives delrin's modulus, 1.79 GPa (the stored value to its 0.1 MPa rounding),
     and the basis row reproduces the measurement."""
     assert calibrate_modulus() == pytest.approx(MATERIALS["delrin"].E_MPa, abs=0.1)
-    assert calibrate_modulus() == pytest.approx(1786.4, rel=1e-3)
+    assert calibrate_modulus() == pytest.approx(1786.2, rel=1e-3)
 
 
 def test_hinge_length_agrees_with_the_modulus_calibration():
@@ -54,13 +54,13 @@ def test_hinge_length_alone_cannot_make_the_cut_basis_body_as_soft_as_measured()
 
 
 @pytest.mark.parametrize("specimen,quantity", [
-    pytest.param(s, q, marks=pytest.mark.xfail(strict=True, reason="disagrees, by a hair: +25.1 % against the thesis' 0.239 mm/N"))
+    pytest.param(s, q, marks=pytest.mark.xfail(strict=True, reason="disagrees, by a hair: +25.2 % against the thesis' 0.239 mm/N"))
     if (s, q) == ("sample-a", "sensitivity") else (s, q)
     for s in ("sample-a", "sample-b") for q in ("amplification", "sensitivity", "strain_energy")])
 def test_predictions_within_25_percent_of_thesis_model(rows, specimen, quantity):
     """Against the thesis' analytic column (a model with sharp, rigid roots): sample A A
-    +7.2 %, sensitivity +25.1 % (a disagreement: the cut part's fillets, which the thesis'
-    sharp roots lack), SE -24.8 %; sample B +3.5 %, -13.5 %, -6.4 %."""
+    +7.2 %, sensitivity +25.2 % (a disagreement: the cut part's fillets, which the thesis'
+    sharp roots lack), SE -24.8 %; sample B +3.3 %, -13.6 %, -6.0 %."""
     r = rows[specimen]
     model = {"amplification": r.amplification, "sensitivity": r.sensitivity_mm_per_N,
              "strain_energy": r.strain_energy_mJ}[quantity]
