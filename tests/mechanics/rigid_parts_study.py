@@ -17,11 +17,11 @@ all rigid, what is left is the hinges'.
 
     python -m tests.mechanics.rigid_parts_study [NAME ...] [--margin 0.15] [--across 6]
 
-About 20 s a body on one core (eight FE solves on one mesh; 4 min for the 13 by default).
+About 20 s a body on one core (eight FE solves on one mesh; 4 min for the 12 by default).
 Prints one JSON object per body (percent: the beam model against the continuum; per group,
 the change in A and k_out that making it rigid brings in each model, and the beam model
 against the continuum with it rigid in both) and one for all of them (mean |error in A|). Bodies are names of the continuum table (entries, or drawn cases; a name in both is
-the cut-part entry); by default the three linear misses of
+the cut-part entry); by default the two linear misses of
 tests/mechanics/test_continuum_table.py and ten other bodies.
 """
 

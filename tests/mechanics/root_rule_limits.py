@@ -8,7 +8,7 @@ linear limit: max over the bodies of max(|k_out error| / 3 %, |A error| / 1.5 %)
 the targets could be met; the stored constants are least squares on k_out over the entries
 not held out, not this minimax (tests/mechanics/test_root_rule.py).
 
-    python -m tests.mechanics.root_rule_limits      # about 35 s; one JSON object
+    python -m tests.mechanics.root_rule_limits      # about 3 min; one JSON object
 
 Prints the score of the stored constants, the best found, its constants and its worst bodies.
 """
