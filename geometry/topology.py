@@ -329,7 +329,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     # A knee block carries the side chain's force from its bottom hinge to its top one: two
     # stubs as wide as the block from its faces to its centre, where the middle link's
     # root joins it (a rigid arm); their axial and shear compliance counts next to thick
-    # hinges' (DESIGN section 16)
+    # hinges' (the continuum table's thick-hinged basis bodies: k_out 1-3 % softer)
     knee_c_l = node(((lay.P1[0] + lay.P2[0]) / 2, (lay.P1[1] + lay.P2[1]) / 2))
     knee_c_r = node(mirrored(nodes[knee_c_l]))
     members += [("rigid", inp, plate_mid, d.plate_thickness_mm, 0, "top plate"),
