@@ -266,14 +266,14 @@ def _report(d: Design, lay, parts: list[Part], poly: np.ndarray, I: np.ndarray, 
 
     if overlap.any():
         k = int(np.argmax(overlap))
-        add("no_crossing", False, f"{parts[I[k]].name} crosses {parts[J[k]].name} "
+        add("no_crossing", False, f"{parts[I[k]].body} crosses {parts[J[k]].body} "
             f"(phi1_deg = {d.phi1_deg:g}, phi2_deg = {d.phi2_deg})")
     else:
         add("no_crossing", True, "no part crosses another")
     gaps = np.where(overlap, np.inf, dist)
     k = int(np.argmin(gaps))
     add("kerf_gap", gaps[k] >= d.kerf_mm - 1e-9,
-        f"gap between {parts[I[k]].name} and {parts[J[k]].name} = {gaps[k]:.3f} mm: must be >= kerf_mm = {d.kerf_mm:g} mm",
+        f"gap between {parts[I[k]].body} and {parts[J[k]].body} = {gaps[k]:.3f} mm: must be >= kerf_mm = {d.kerf_mm:g} mm",
         gaps[k] - d.kerf_mm)
 
     if d.is_basis:

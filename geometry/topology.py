@@ -329,7 +329,10 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     # A knee block carries the side chain's force from its bottom hinge to its top one: two
     # stubs as wide as the block from its faces to its centre, where the middle link's
     # root joins it (a rigid arm); their axial and shear compliance counts next to thick
-    # hinges' (the continuum table's thick-hinged basis bodies: k_out 1-3 % softer)
+    # hinges' (the continuum table's thick-hinged basis bodies: k_out 1-3 % softer). Unlike
+    # the plates' members, the stubs start at the faces, not at the hinges' effective roots:
+    # the 0.05-0.5 mm a hinge's root reaches into the block counts in both, as the root rule
+    # was fitted
     knee_c_l = node(((lay.P1[0] + lay.P2[0]) / 2, (lay.P1[1] + lay.P2[1]) / 2))
     knee_c_r = node(mirrored(nodes[knee_c_l]))
     members += [("rigid", inp, plate_mid, d.plate_thickness_mm, 0, "top plate"),
@@ -424,8 +427,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
         E_MPa=d.material.E_MPa,
         nu=d.material.nu,
         material_name=d.material.name,
-        labels={"input": inp, "output": out, "base left": base_l, "base right": base_r,
-                "left knee": knee_c_l, "right knee": knee_c_r},
+        labels={"input": inp, "output": out, "base left": base_l, "base right": base_r},
         profile_mm=tuple(shape[i][0] if i in shape else None for i in range(m)),
         neck_mm=neck,
         root_radius_mm=radius,

@@ -25,8 +25,9 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "render", help="PNG of the undeformed and deformed 3D body, coloured by strain energy",
         description="Solve a design to an output travel and draw the extruded body warped by "
-                    "the solved displacements (rigid parts move with their nodes, hinges and "
-                    "links bend as cubic beams between their end nodes), coloured by strain "
+                    "the solved displacements (the base plate and fiber post move rigidly; "
+                    "hinges, links and the halves of the plates and knee blocks bend as cubic "
+                    "beams between their end nodes), coloured by strain "
                     "energy density on a log scale, over the undeformed body in grey. The "
                     "displacements are magnified by the stated scale factor. Renders off-screen.")
     add_design_arguments(p)

@@ -817,10 +817,11 @@ def knee_motion_beam(design: Design, model, result) -> dict:
     """The left knee's motion per mm of input travel in the beam model (its centre node, where
     the block's two stubs meet): the keys of :func:`knee_motion_fe` but the residual."""
     centre, _ = _knee(design)
-    node = model.labels["left knee"]
-    u = result.deformed_nodes[node] - model.nodes[node]
+    node = int(np.argmin(np.linalg.norm(model.nodes - centre, axis=1)))
+    if np.linalg.norm(model.nodes[node] - centre) > 1e-9:
+        raise SolverError(f"beam model of {design.name!r} has no node at the left knee's centre")
+    ux = result.deformed_nodes[node, 0] - model.nodes[node, 0]
     turn = result.node_rotation_rad[node]
-    ux = u[0] - turn * (centre[1] - model.nodes[node, 1])
     return {"knee_outward_per_input": float(-ux / result.input_travel_mm),
             "knee_rotation_per_input_rad_per_mm": float(turn / result.input_travel_mm)}
 

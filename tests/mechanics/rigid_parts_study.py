@@ -11,8 +11,8 @@ links, middle links, top plate, platform, base plate) 1000 x stiffer except a ri
 then with all of them; the beam model is solved with the same groups' members rigid (the
 base plate is rigid in it already). Where a group changes A differently in
 the two, the beam model's account of that group (or of the roots in it: the rim keeps
-the hinges' roots elastic to ``--margin``, the beam's roots reach 0.11-0.14 mm past a face
-for 0.3 mm hinges, 0.51 mm for a 1.4 mm hinge leaning 22 deg) is where A goes wrong; with
+the hinges' roots elastic to ``--margin``, the beam's roots reach 0.09-0.21 mm past a face
+for 0.3 mm hinges, 0.48-0.54 mm for a 1.4 mm hinge leaning 22 deg) is where A goes wrong; with
 all rigid, what is left is the hinges'.
 
     python -m tests.mechanics.rigid_parts_study [NAME ...] [--margin 0.15] [--across 6]

@@ -54,7 +54,8 @@ def test_hinge_length_alone_cannot_make_the_cut_basis_body_as_soft_as_measured()
 
 
 @pytest.mark.parametrize("specimen,quantity", [
-    pytest.param(s, q, marks=pytest.mark.xfail(strict=True, reason="disagrees, by a hair: +25.2 % against the thesis' 0.239 mm/N"))
+    pytest.param(s, q, marks=pytest.mark.xfail(
+        strict=True, reason="disagrees, by a hair: +25.2 % against the thesis' 0.239 mm/N"))
     if (s, q) == ("sample-a", "sensitivity") else (s, q)
     for s in ("sample-a", "sample-b") for q in ("amplification", "sensitivity", "strain_energy")])
 def test_predictions_within_25_percent_of_thesis_model(rows, specimen, quantity):
