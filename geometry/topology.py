@@ -332,7 +332,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     # hinges' (the continuum table's thick-hinged basis bodies: k_out 1-3 % softer). Unlike
     # the plates' members, the stubs start at the faces, not at the hinges' effective roots:
     # the 0.05-0.5 mm a hinge's root reaches into the block counts in both, as the root rule
-    # was fitted
+    # was fitted (stubs stopped at the roots, constants refitted: RMS k_out error 1.029
+    # against 1.031 %, the same misses within 0.1 point; one-off run)
     knee_c_l = node(((lay.P1[0] + lay.P2[0]) / 2, (lay.P1[1] + lay.P2[1]) / 2))
     knee_c_r = node(mirrored(nodes[knee_c_l]))
     members += [("rigid", inp, plate_mid, d.plate_thickness_mm, 0, "top plate"),
