@@ -148,11 +148,13 @@ def _free_pairs(names: tuple[str, ...], kinds: tuple[str, ...], hinges: tuple[in
         parts_of.setdefault(n, []).append(i)
         if b != n:
             parts_of.setdefault(b, []).append(i)
-    joined = {(i, j) for group in parts_of.values() for i in group for j in group if i < j}
+    joined: set[tuple[int, int]] = set()
 
     def join(a, b):
         joined.update((min(i, j), max(i, j)) for i in parts_of.get(a, ()) for j in parts_of.get(b, ()) if i != j)
 
+    for body in set(bodies):
+        join(body, body)
     join("fiber post", "base plate")
     join("top plate left", "top plate right")
     join("platform left", "platform right")

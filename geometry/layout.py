@@ -64,6 +64,12 @@ class Layout:
     output_point: np.ndarray  # the mirror: platform underside centre (top plate's for basis)
     post_top: float      # fiber tip level (top of the fiber post)
 
+    @property
+    def knee_centre(self) -> np.ndarray:
+        """The left knee block's centre, where its two halves (and the beam model's two
+        stubs) meet and the middle link's root joins it (mm)."""
+        return (self.P1 + self.P2) / 2
+
     @functools.cached_property
     def side_members(self) -> tuple[SideMember, ...]:
         """The hinge-link-hinge members, in the order and with the hinge numbers of the loop
@@ -218,8 +224,7 @@ def make_parts(lay: Layout) -> list[Part]:
 def _knee_halves(body: str, x0: float, lay: Layout) -> list[Part]:
     """A knee block from x0 (mm, its left edge) as its lower and upper halves."""
     w = lay.design.knee_width_mm
-    xc, (y0, y1) = x0 + w / 2, (lay.P1[1], lay.P2[1])
-    ym = (y0 + y1) / 2
+    xc, (y0, y1), ym = x0 + w / 2, (lay.P1[1], lay.P2[1]), float(lay.knee_centre[1])
     return [Part(f"{body} {half}", "block", _rect(x0, lo, x0 + w, hi), 0, np.array([[xc, lo], [xc, hi]]), w, body)
             for half, lo, hi in (("lower", y0, ym), ("upper", ym, y1))]
 

@@ -334,7 +334,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     # the 0.05-0.5 mm a hinge's root reaches into the block counts in both, as the root rule
     # was fitted (stubs stopped at the roots, constants refitted: RMS k_out error 1.029
     # against 1.031 %, the same misses within 0.1 point; one-off run)
-    knee_c_l = node(((lay.P1[0] + lay.P2[0]) / 2, (lay.P1[1] + lay.P2[1]) / 2))
+    knee_c_l = node(lay.knee_centre)
     knee_c_r = node(mirrored(nodes[knee_c_l]))
     members += [("rigid", inp, plate_mid, d.plate_thickness_mm, 0, "top plate"),
                 ("link", plate_mid, plate_l, d.plate_thickness_mm, 0, "top plate left"),
