@@ -202,16 +202,16 @@ def solve_in_place(W, m, ncore, row_end, reach):
                     last = j
             hi[i] = last
     for k in range(m):
-        last = reach[k] if k < ncore else m - 1      # the last core row that can reach column k
+        # the rows below k that can hold column k: core rows up to the last that can reach
+        # it, then the dense rows (the core rows in between hold zeros there)
+        last = reach[k] if k < ncore else m - 1
+        rows = ((k + 1, last + 1), (max(last + 1, ncore), m))
         p, big = k, abs(W[k, k])
-        for i in range(k + 1, last + 1):
-            v = abs(W[i, k])
-            if v > big:
-                p, big = i, v
-        for i in range(max(last + 1, ncore), m):
-            v = abs(W[i, k])
-            if v > big:
-                p, big = i, v
+        for start, stop in rows:
+            for i in range(start, stop):
+                v = abs(W[i, k])
+                if v > big:
+                    p, big = i, v
         if big == 0.0:
             return False
         if p != k:
@@ -220,18 +220,17 @@ def solve_in_place(W, m, ncore, row_end, reach):
             hi[k], hi[p] = hi[p], hi[k]
         pivot = W[k, k]
         end = hi[k]
-        for i in range(k + 1, m):
-            if i > last and i < ncore:
-                continue
-            if W[i, k] == 0.0:
-                continue
-            lik = W[i, k] / pivot
-            W[i, k] = 0.0
-            for j in range(k + 1, end + 1):
-                W[i, j] -= lik * W[k, j]
-            for j in range(max(ncore, k + 1), m + 1):
-                W[i, j] -= lik * W[k, j]
-            hi[i] = max(hi[i], end)
+        for start, stop in rows:
+            for i in range(start, stop):
+                if W[i, k] == 0.0:
+                    continue
+                lik = W[i, k] / pivot
+                W[i, k] = 0.0
+                for j in range(k + 1, end + 1):
+                    W[i, j] -= lik * W[k, j]
+                for j in range(max(ncore, k + 1), m + 1):
+                    W[i, j] -= lik * W[k, j]
+                hi[i] = max(hi[i], end)
     for i in range(m - 1, -1, -1):
         s = W[i, m]
         for j in range(i + 1, hi[i] + 1):
