@@ -150,36 +150,39 @@ def _port(node, direction, body_of_node, dof_of_body, u, rho, g):
 
 @njit(cache=True, error_model="numpy")
 def _evaluate(q, lam, topo, bt, b, w):
-    """Residual w.F (out-of-balance forces, F - lam g_in), tangent w.K, the input port's
+    """Residual w.F (out-of-balance forces, F - lam g_in), tangent w.Kg, the input port's
     gradient w.g_in and the output port's gradient w.g_out at state q; returns the output travel."""
     body_of_node, dof_of_body, ea, eb, elem_dofs, in_node, out_node = topo[:7]
-    r0, d0, L0, beta0, Kn, f_in, d_out, Bw = bt
-    node_state(q, body_of_node, r0[b], w.u, w.th, w.rho)
-    nd = w.F.shape[0]
+    # design b's constants and the scratch arrays taken once (not at every member's call)
+    r0, d0, L0, beta0, Kn, f_in, d_out, Bw = (bt[0][b], bt[1][b], bt[2][b], bt[3][b], bt[4][b],
+                                              bt[5][b], bt[6][b], bt[7][b])
+    u, th, rho, defo, qf, f, Ke, Bm, KB, z, r = w.u, w.th, w.rho, w.defo, w.qf, w.f, w.Ke, w.Bm, w.KB, w.z, w.r
+    F, Kg = w.F, w.Kg
+    node_state(q, body_of_node, r0, u, th, rho)
+    nd = F.shape[0]
     for i in range(nd):
-        w.F[i] = 0.0
+        F[i] = 0.0
         for j in range(nd):
-            w.Kg[i, j] = 0.0
+            Kg[i, j] = 0.0
     for k in range(ea.shape[0]):
-        element(k, ea, eb, d0[b], L0[b], beta0[b], Kn[b], Bw[b], w.u, w.th, w.rho, w.defo, w.qf, w.f,
-                w.Ke, w.Bm, w.KB, w.z, w.r)
+        element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, Ke, Bm, KB, z, r)
         for i in range(6):
             di = elem_dofs[k, i]
             if di < 0:
                 continue
-            w.F[di] += w.f[i]
+            F[di] += f[i]
             for j in range(6):
                 dj = elem_dofs[k, j]
                 if dj >= 0:
-                    w.Kg[di, dj] += w.Ke[i, j]
-    _port(in_node, f_in[b], body_of_node, dof_of_body, w.u, w.rho, w.g_in)
-    travel = _port(out_node, d_out[b], body_of_node, dof_of_body, w.u, w.rho, w.g_out)
+                    Kg[di, dj] += Ke[i, j]
+    _port(in_node, f_in, body_of_node, dof_of_body, u, rho, w.g_in)
+    travel = _port(out_node, d_out, body_of_node, dof_of_body, u, rho, w.g_out)
     # dead load lam f_in at the input node: its moment arm turns with the body
     for i in range(nd):
-        w.F[i] -= lam * w.g_in[i]
+        F[i] -= lam * w.g_in[i]
     rot = dof_of_body[body_of_node[in_node], 2]
     if rot >= 0:
-        w.Kg[rot, rot] += lam * (w.rho[in_node, 0] * f_in[b, 0] + w.rho[in_node, 1] * f_in[b, 1])
+        Kg[rot, rot] += lam * (rho[in_node, 0] * f_in[0] + rho[in_node, 1] * f_in[1])
     return travel
 
 
