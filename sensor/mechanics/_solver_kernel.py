@@ -248,9 +248,10 @@ def solve_in_place(W, m, ncore, row_end, reach):
 
 
 @njit(cache=True, error_model="numpy")
-def positive_definite(K, L, row_start):
+def positive_definite(K, L, row_start, reach):
     """Whether the symmetric part of K (n, n) is positive definite: Cholesky into L within
-    the envelope (row i's nonzeros start at column row_start[i])."""
+    the envelope (row i's nonzeros start at column row_start[i]; no row below reach[j]
+    reaches back to column j)."""
     n = K.shape[0]
     for j in range(n):
         d = K[j, j]
@@ -259,7 +260,7 @@ def positive_definite(K, L, row_start):
         if not d > 0.0:
             return False
         L[j, j] = math.sqrt(d)
-        for i in range(j + 1, n):
+        for i in range(j + 1, reach[j] + 1):
             if row_start[i] > j:
                 continue
             s = 0.5 * (K[i, j] + K[j, i])
@@ -345,7 +346,7 @@ def increment(q, lam, goal, target, lam_scale, alive, verify, disp, tol, max_ite
             continue
         status[b], lam[b], res[b] = _newton(q[b], lam[b], goal, target, lam_scale[b], verify, disp,
                                             tol, max_iterations, topo, bt, b, weight[b], w)
-        stable[b] = status[b] == CONVERGED and positive_definite(w.Kg, w.L, topo[7])
+        stable[b] = status[b] == CONVERGED and positive_definite(w.Kg, w.L, topo[7], topo[9])
         node_state(q[b], body_of_node, bt[0][b], w.u, w.th, w.rho)
         u_in[b] = w.u[in_node, 0] * d_in[b, 0] + w.u[in_node, 1] * d_in[b, 1]
         u_out[b] = w.u[out_node, 0] * d_out[b, 0] + w.u[out_node, 1] * d_out[b, 1]

@@ -55,8 +55,8 @@ def test_positive_definiteness_matches_cholesky(shift, expected):
     S = S + S.T
     S += (shift - np.linalg.eigvalsh(S).min()) * np.eye(40)
     skew = np.triu(rng.standard_normal((40, 40)) * (np.abs(np.subtract.outer(range(40), range(40))) <= 5), 1)
-    start = np.maximum(np.arange(40) - 5, 0)
-    assert K.positive_definite(S + skew - skew.T, np.zeros((40, 40)), start) is expected
+    start, reach = np.maximum(np.arange(40) - 5, 0), np.minimum(np.arange(40) + 5, 39)
+    assert K.positive_definite(S + skew - skew.T, np.zeros((40, 40)), start, reach) is expected
 
 
 @pytest.mark.parametrize("name", ["basis", "sample-b"])
