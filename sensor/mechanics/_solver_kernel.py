@@ -32,7 +32,7 @@ def work(n_nodes: int, n_dof: int) -> Work:
     """Scratch arrays for a topology of n_nodes nodes and n_dof reduced dofs."""
     e = np.empty
     return Work(e((n_nodes, 2)), e(n_nodes), e((n_nodes, 2)), e(3), e(3), e(6), e((6, 6)),
-                e((3, 6)), e((3, 6)), e(6), e(6), e(n_dof), e((n_dof, n_dof)), e(n_dof),
+                e((3, 6)), e((3, 6)), e(6), e(6), e(n_dof), np.zeros((n_dof, n_dof)), e(n_dof),
                 e(n_dof), e((n_dof + 1, n_dof + 2)), e(n_dof), np.zeros((n_dof, n_dof)))
 
 
@@ -160,9 +160,10 @@ def _evaluate(q, lam, topo, bt, b, w):
     F, Kg = w.F, w.Kg
     node_state(q, body_of_node, r0, u, th, rho)
     nd = F.shape[0]
+    row_start, row_end = topo[7], topo[8]
     for i in range(nd):
         F[i] = 0.0
-        for j in range(nd):
+        for j in range(row_start[i], row_end[i] + 1):     # Kg is zero outside the envelope
             Kg[i, j] = 0.0
     for k in range(ea.shape[0]):
         element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, Ke, Bm, KB, z, r)
