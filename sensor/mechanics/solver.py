@@ -653,6 +653,7 @@ class _Run:
         x = bt.X + u
         se = u_member.sum(axis=1)
         work = simpson(F, x=u_in, axis=0)
+        bending = np.degrees(defo[..., 2] - defo[..., 1]).tolist()     # (B, e) of each member, deg
         results = []
         for b in range(self.B):
             if not alive[b]:
@@ -660,8 +661,7 @@ class _Run:
                 continue
             m = self.models[b]
             hinge = m.hinge_number[topo.flex]
-            rot = {int(h): float(np.degrees(defo[b, i, 2] - defo[b, i, 1]))
-                   for i, h in enumerate(hinge) if h > 0}
+            rot = {int(h): bending[b][i] for i, h in enumerate(hinge) if h > 0}
             A = u_out[-1, b] / u_in[-1, b]
             results.append(SolveResult(
                 amplification=float(A), k_out_N_per_mm=float(lam[b] / u_out[-1, b]),
