@@ -29,7 +29,8 @@ Work = namedtuple("Work", "u th rho defo qf f Ke Bm KB z r F Kg g_in g_out W x L
 
 
 def work(n_nodes: int, n_dof: int) -> Work:
-    """Scratch arrays for a topology of n_nodes nodes and n_dof reduced dofs."""
+    """Scratch arrays for a topology of n_nodes nodes and n_dof reduced dofs (the tangent Kg
+    starts zero: :func:`_evaluate` clears only its envelope)."""
     e = np.empty
     return Work(e((n_nodes, 2)), e(n_nodes), e((n_nodes, 2)), e(3), e(3), e(6), e((6, 6)),
                 e((3, 6)), e((3, 6)), e(6), e(6), e(n_dof), np.zeros((n_dof, n_dof)), e(n_dof),
