@@ -16,7 +16,7 @@ from sensor.design_space.scatter import as_cut
 from sensor.design_space.spec import SweepSpec
 from sensor.mechanics.qualifiers import Qualifiers, qualify
 from sensor.mechanics.solver import SolverOptions, solve_batch
-from sensor.mechanics.stress import stress_check
+from sensor.mechanics.stress import stress_checks
 
 
 def _cell_seed(seed: int, hinges: str, i: int, j: int) -> np.random.Generator:
@@ -34,8 +34,11 @@ def _evaluate(designs, spec: SweepSpec, opts: SolverOptions):
     out = {k: np.array([getattr(x, k) for x in q], dtype=float) for k in Qualifiers.names()}
     out["resolution_N"] = resolutions_N([None if r is None else (r.force_N, r.output_mm) for r in res],
                                         [d.fiber_clearance_mm for d in designs])
-    out["stress_utilisation"] = np.array([np.nan if r is None else stress_check(d, m, r).utilisation
-                                          for d, m, r in zip(designs, models, res)])
+    solved = [n for n, r in enumerate(res) if r is not None]
+    out["stress_utilisation"] = np.full(len(designs), np.nan)
+    if solved:
+        checks = stress_checks([designs[n] for n in solved], [models[n] for n in solved], [res[n] for n in solved])
+        out["stress_utilisation"][solved] = [c.utilisation for c in checks]
     assert set(out) == set(BODY)
     return out, errs
 

@@ -104,22 +104,21 @@ def fillet_widening_mm(t_mm, radius_mm, reach_mm):
     return height * np.minimum(1.0, reach / t_mm)
 
 
-def hinge_stresses(model: BeamModel, result) -> dict[int, HingeStress]:
-    """Each hinge's stresses at the solved state of ``result`` (a SolveResult of ``model``).
-
-    Each of a hinge's four root fillets (two ends, two faces) concentrates its own face's
-    stress where it meets the neck, by :func:`root_kt`: in the section widened by the
-    fillet across where that one reaches further (a face leaning from the hinge's normal,
-    :func:`fillet_widening_mm`). The faces' stresses where the neck starts count too (with
-    no factor: a shielded fillet's face peaks there). The peak is the largest of these."""
+def _hinge_loads(model: BeamModel, result) -> tuple:
+    """A solved model's hinges, in hinge-number order: (N, Ma, Mb, t, b, L, s0, s1) (hinge,),
+    where the fillets meet the neck (end, side, hinge) and their radii (end, 1, hinge)."""
     row = {int(m): i for i, m in enumerate(result.member_index)}
     hinges = model.hinge_members
     N, Ma, Mb = np.asarray(result.member_forces)[[row[int(m)] for m in hinges]].T
-    t, b = model.thickness_mm[hinges], model.depth_mm[hinges]
-    L = model.lengths_mm[hinges]
     s0, s1 = model.neck_mm[hinges].T
-    at = np.moveaxis(model.fillet_neck_mm[hinges], 0, -1)        # (end, side, hinge)
-    r = model.root_radius_mm[hinges].T[:, None, :]               # (end, 1, hinge)
+    return (N, Ma, Mb, model.thickness_mm[hinges], model.depth_mm[hinges], model.lengths_mm[hinges], s0, s1,
+            np.moveaxis(model.fillet_neck_mm[hinges], 0, -1), model.root_radius_mm[hinges].T[:, None, :])
+
+
+def _stresses(N, Ma, Mb, t, b, L, s0, s1, at, r) -> tuple:
+    """The stresses of hinges given by :func:`_hinge_loads` (each hinge on its own, so
+    several models' hinges can be joined along the last axis): the candidates' nominal
+    stresses and factors (8, hinge), the governing candidate and the neck stress (hinge,)."""
     # how much further the fillet across meets the neck (into the neck: + at the start)
     reach = (at[:, ::-1] - at) * np.array([1.0, -1.0])[:, None, None]
     side = np.array([1.0, -1.0])[None, :, None]
@@ -128,13 +127,25 @@ def hinge_stresses(model: BeamModel, result) -> dict[int, HingeStress]:
     kt = np.broadcast_to(root_kt(t, r), fillet.shape)
     # candidates (fillets, then the neck starts' faces) x hinges
     nominal = np.concatenate([fillet.reshape(4, -1), neck_start.reshape(4, -1)])
-    factor = np.concatenate([kt.reshape(4, -1), np.ones((4, len(hinges)))])
-    peaks = factor * nominal
-    worst = np.argmax(peaks, axis=0)
+    factor = np.concatenate([kt.reshape(4, -1), np.ones((4, len(t)))])
+    worst = np.argmax(factor * nominal, axis=0)
     neck = np.maximum(_nominal_stress(N, Ma, Mb, t, b, L, np.minimum(s0 + t, (s0 + s1) / 2)),
                       _nominal_stress(N, Ma, Mb, t, b, L, np.maximum(s1 - t, (s0 + s1) / 2)))
-    numbers = model.hinge_number[hinges]
-    return {int(h): HingeStress(int(h), float(nominal[w, i]), float(k), float(factor[w, i]), float(peaks[w, i]))
+    return nominal, factor, worst, neck
+
+
+def hinge_stresses(model: BeamModel, result) -> dict[int, HingeStress]:
+    """Each hinge's stresses at the solved state of ``result`` (a SolveResult of ``model``).
+
+    Each of a hinge's four root fillets (two ends, two faces) concentrates its own face's
+    stress where it meets the neck, by :func:`root_kt`: in the section widened by the
+    fillet across where that one reaches further (a face leaning from the hinge's normal,
+    :func:`fillet_widening_mm`). The faces' stresses where the neck starts count too (with
+    no factor: a shielded fillet's face peaks there). The peak is the largest of these."""
+    nominal, factor, worst, neck = _stresses(*_hinge_loads(model, result))
+    numbers = model.hinge_number[model.hinge_members]
+    return {int(h): HingeStress(int(h), float(nominal[w, i]), float(k), float(factor[w, i]),
+                                float(factor[w, i] * nominal[w, i]))
             for i, (h, w, k) in enumerate(zip(numbers, worst, neck))}
 
 
@@ -155,14 +166,29 @@ class StressCheck:
 def stress_check(design: Design, model: BeamModel, result) -> StressCheck:
     """Check every hinge's peak stress at the solved state against
     ``design.material.allowable_stress_MPa``."""
-    s = hinge_stresses(model, result)
-    worst = max(s.values(), key=lambda h: h.peak_MPa)
-    allow = design.material.allowable_stress_MPa
-    ratio = worst.peak_MPa / allow
-    msg = (f"hinge {worst.hinge}: peak stress {worst.peak_MPa:.1f} MPa (Kt {worst.kt:.2f} x "
-           f"{worst.root_nominal_MPa:.1f} MPa nominal) {'<=' if ratio <= 1 else '>'} allowable "
-           f"{allow:g} MPa of {design.material.name}")
-    return StressCheck(ratio <= 1.0, worst.hinge, worst.peak_MPa, allow, ratio, msg)
+    return stress_checks([design], [model], [result])[0]
+
+
+def stress_checks(designs, models, results) -> list[StressCheck]:
+    """:func:`stress_check` of each (design, model, result), the hinges of all of them in one
+    vectorised pass (a sweep row checks 41)."""
+    loads = [_hinge_loads(m, r) for m, r in zip(models, results)]
+    nominal, factor, worst, _ = _stresses(*(np.concatenate(a, axis=-1) for a in zip(*loads)))
+    k = np.arange(len(worst))
+    nominal, factor = nominal[worst, k], factor[worst, k]
+    peak = factor * nominal
+    checks, start = [], 0
+    for design, model, (N, *_) in zip(designs, models, loads):
+        i = start + int(np.argmax(peak[start:start + len(N)]))   # the first of equal peaks
+        hinge = int(model.hinge_number[model.hinge_members][i - start])
+        allow = design.material.allowable_stress_MPa
+        ratio = float(peak[i]) / allow
+        msg = (f"hinge {hinge}: peak stress {peak[i]:.1f} MPa (Kt {factor[i]:.2f} x "
+               f"{nominal[i]:.1f} MPa nominal) {'<=' if ratio <= 1 else '>'} allowable "
+               f"{allow:g} MPa of {design.material.name}")
+        checks.append(StressCheck(ratio <= 1.0, hinge, float(peak[i]), allow, ratio, msg))
+        start += len(N)
+    return checks
 
 
 def stress_ok(design: Design, model: BeamModel, result) -> bool:
