@@ -209,16 +209,29 @@ def make_parts(lay: Layout) -> list[Part]:
                        np.array([[0.0, ym], [-half, ym]]), d.platform_thickness_mm),
                   Part("platform right", "platform", _rect(0.0, y0, half, y0 + d.platform_thickness_mm), 0,
                        np.array([[0.0, ym], [half, ym]]), d.platform_thickness_mm)]
-    lh = d.hinge_length_mm
     for sm in lay.side_members:
-        nodes = member_chain(sm.ends[0], sm.ends[1], lh)
-        (h1, h2), (face1, face2) = sm.hinges, sm.faces
-        t1, t2 = d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1]
-        parts.append(Part(f"hinge {h1}", "hinge", rooted_neck(nodes[0], nodes[1], t1, face1), h1, nodes[0:2], t1))
-        parts.append(Part(f"{sm.name} link", "link", bar(nodes[1], nodes[2], d.link_width_mm), 0,
-                          nodes[1:3], d.link_width_mm))
-        parts.append(Part(f"hinge {h2}", "hinge", rooted_neck(nodes[3], nodes[2], t2, face2), h2, nodes[2:4], t2))
+        (h1, h2) = sm.hinges
+        parts += _member_parts(sm.name, sm.ends.tobytes(), sm.hinges, sm.faces, d.hinge_length_mm,
+                               d.hinge_thickness_mm[h1 - 1], d.hinge_thickness_mm[h2 - 1], d.link_width_mm)
     return parts
+
+
+@functools.lru_cache(maxsize=1024)
+def _member_parts(name: str, ends: bytes, hinges: tuple[int, int], faces: tuple[Face, Face], hinge_length: float,
+                  t1: float, t2: float, link_width: float) -> tuple[Part, Part, Part]:
+    """A side member's hinge, link and hinge parts (``ends``: its (2, 2) end points' bytes).
+    Cached (the cells of a sweep row share their side members, the rows their middle
+    members); the arrays are read-only."""
+    a, b = np.frombuffer(ends).reshape(2, 2)
+    nodes = member_chain(a, b, hinge_length)
+    nodes.flags.writeable = False
+    (h1, h2), (face1, face2) = hinges, faces
+    out = (Part(f"hinge {h1}", "hinge", rooted_neck(nodes[0], nodes[1], t1, face1), h1, nodes[0:2], t1),
+           Part(f"{name} link", "link", bar(nodes[1], nodes[2], link_width), 0, nodes[1:3], link_width),
+           Part(f"hinge {h2}", "hinge", rooted_neck(nodes[3], nodes[2], t2, face2), h2, nodes[2:4], t2))
+    for part in out:
+        part.polygon.flags.writeable = False
+    return out
 
 
 def _knee_halves(body: str, x0: float, lay: Layout) -> list[Part]:
