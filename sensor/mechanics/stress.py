@@ -178,16 +178,17 @@ def stress_checks(designs, models, results) -> list[StressCheck]:
     nominal, factor = nominal[worst, k], factor[worst, k]
     peak = factor * nominal
     checks, start = [], 0
-    for design, model, (N, *_) in zip(designs, models, loads):
-        i = start + int(np.argmax(peak[start:start + len(N)]))   # the first of equal peaks
-        hinge = int(model.hinge_number[model.hinge_members][i - start])
+    for design, model in zip(designs, models):
+        numbers = model.hinge_number[model.hinge_members]
+        i = start + int(np.argmax(peak[start:start + len(numbers)]))   # the first of equal peaks
+        hinge = int(numbers[i - start])
         allow = design.material.allowable_stress_MPa
         ratio = float(peak[i]) / allow
         msg = (f"hinge {hinge}: peak stress {peak[i]:.1f} MPa (Kt {factor[i]:.2f} x "
                f"{nominal[i]:.1f} MPa nominal) {'<=' if ratio <= 1 else '>'} allowable "
                f"{allow:g} MPa of {design.material.name}")
         checks.append(StressCheck(ratio <= 1.0, hinge, float(peak[i]), allow, ratio, msg))
-        start += len(N)
+        start += len(numbers)
     return checks
 
 
