@@ -22,7 +22,10 @@ with forward-difference gradients whose perturbed bodies are solved together in 
 never worse than an equal-hinge cell), each first scaled to the range by thickening or thinning
 every hinge together. The answer: the best converged candidates projected onto their active
 hinge bounds, matched to the range again with the free hinges, written values rounded inward
-(angles 0.01 deg, hinges 0.1 um) and checked again as written (:func:`accept`).
+(angles 0.01 deg, hinges 0.1 um) and checked again as written (:func:`accept`). Where no start
+ends feasible, or every start scaled to the range lies past the hinge bounds (the search is
+then skipped), the reachable interval (:mod:`sensor.design_space.reach`) decides: outside it
+the range is refused, naming it; inside it the search starts again from its bodies.
 """
 
 from __future__ import annotations
@@ -451,14 +454,28 @@ def equal_hinge_start(problem: DesignProblem, n: int = 8, counter: list | None =
 
 
 def starts(problem: DesignProblem, n: int = STARTS, counter: list | None = None) -> np.ndarray:
-    """Start points in the unit box: a Latin hypercube of n (seeded by ``problem.seed``)
-    scaled to the range, and the best equal-hinge body of the range."""
+    """Start points as variables, not clipped to the bounds: a Latin hypercube of n (seeded by
+    ``problem.seed``) scaled to the range, and the best equal-hinge body of the range."""
     lhs = qmc.LatinHypercube(d=len(problem.lower), seed=problem.seed).random(n)
     Z = scale_to_range(problem, problem.from_unit(lhs), counter=counter)
     eq = equal_hinge_start(problem, counter=counter)
-    if eq is not None:
-        Z = np.vstack([eq, Z])
-    return np.clip(problem.to_unit(Z), 0, 1)
+    return Z if eq is None else np.vstack([eq, Z])
+
+
+def beyond_bounds(problem: DesignProblem, Z, counter: list | None = None) -> bool:
+    """Whether no start ``Z`` (variables, scaled to the range) is a body the search can begin
+    from inside the bounds: every one either has all its hinges past the same bound (thicker
+    than hinge_max or thinner than hinge_min: the range lies beyond what its shape reaches
+    within them, range growing with every hinge) or does not solve. ``counter``: as
+    :func:`scale_to_range`'s."""
+    Z = np.atleast_2d(Z)
+    t = Z[:, problem.n_angles:]
+    inside = ~((t.min(axis=1) > problem.upper[-1]) | (t.max(axis=1) < problem.lower[-1]))
+    if not inside.any():
+        return True
+    if counter is not None:
+        counter[0] += int(inside.sum())
+    return not any(pt.ok for pt in evaluate(problem, Z[inside]))
 
 
 # --- the answer -----------------------------------------------------------------------------
@@ -600,16 +617,19 @@ class DesignResult:
 def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: str = "optimised") -> DesignResult:
     """The best body of the problem's range (module docstring); ``pool`` a
     :class:`~sensor.design_space.execution.TaskPool` for the local searches (default: in this
-    process). When no start reaches a feasible body, the reachable interval is computed
-    (:func:`sensor.design_space.reach.reachable_range`): outside it, :class:`DesignError`
-    names it; inside it, the search starts again from the feasible bodies the reach computation
-    found nearest the range."""
+    process). When no start reaches a feasible body, or every start scaled to the range lies
+    past the hinge bounds (:func:`beyond_bounds`: the search from them is skipped), the
+    reachable interval is computed (:func:`sensor.design_space.reach.reachable_range`):
+    outside it, :class:`DesignError` names it; inside it, the search starts again from the
+    feasible bodies the reach computation found nearest the range."""
     from sensor.design_space.reach import reachable_range, unreachable_message
 
     t0 = time.monotonic()
     counter = [0]
-    U0 = starts(problem, n_starts, counter)
-    best, evaluations, rejected = _search(problem, U0, pool, name)
+    Z0 = starts(problem, n_starts, counter)
+    best, evaluations, rejected = None, 0, []
+    if not beyond_bounds(problem, Z0, counter):  # else the reach decides first (it searches if inside)
+        best, evaluations, rejected = _search(problem, np.clip(problem.to_unit(Z0), 0, 1), pool, name)
     reach = (math.nan, math.nan)
     if best is None:
         reach, ends, gap = reachable_range(problem, pool, with_bodies=True)

@@ -70,3 +70,23 @@ def test_a_range_past_the_hysteresis_laws_domain_is_out_of_reach():
     rob = robust(res.problem, res.design)
     assert rob.tolerance.hysteresis_fraction_p50 < H_LIMIT
     assert describe(rob.design, res.problem)["hysteresis"] < H_LIMIT
+
+
+@pytest.mark.parametrize("range_N,beyond", [(1000.0, True), (0.1, True), (5.0, False), (36.0, False)])
+def test_a_range_far_outside_the_bounds_is_refused_by_the_reach_without_a_search(range_N, beyond, monkeypatch):
+    """Every start scaled to 1000 N needs hinges past hinge_max, and to 0.1 N past hinge_min
+    (or does not solve): no search can end at the range inside the bounds, so ``optimise``
+    skips it and the reach refuses (`dacm design --range 1000`: 65 s to 38 s, the search's
+    24 s saved). At 5 N and at the reach's top, 36 N, some start lies inside the bounds and
+    the search runs as before."""
+    import sensor.design_space.optimise as optimise_module
+    from sensor.design_space.optimise import beyond_bounds, starts
+
+    p = DesignProblem(range_N)
+    assert beyond_bounds(p, starts(p, 4)) is beyond
+    if beyond:
+        searched = []
+        monkeypatch.setattr(optimise_module, "_search", lambda *a: searched.append(a) or (None, 0, []))
+        with pytest.raises(DesignError, match=r"the reachable interval is [\d.]+ to [\d.]+ N"):
+            optimise(p, n_starts=4)
+        assert not searched
