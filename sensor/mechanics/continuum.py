@@ -335,7 +335,7 @@ def _von_mises(eps: np.ndarray, lam: float, mu: float, nu: float, plane_strain: 
 
 
 @dataclass(frozen=True, eq=False)
-class _Problem:
+class BodyProblem:
     """The discrete problem of one mesh: basis, linear stiffness and the port dofs."""
 
     basis: object
@@ -349,7 +349,12 @@ class _Problem:
     depth: float
 
 
-def _problem(design: Design, points, triangles, plane_strain, punch_width_mm, clamp):
+def body_problem(design: Design, points, triangles, plane_strain, punch_width_mm, clamp) -> BodyProblem:
+    """The discrete problem of a body's mesh (points (n, 2) mm, quadratic triangles (m, 3)
+    of :func:`mesh_profile`): its linear stiffness, the clamp (one of :data:`CLAMPS`), the
+    punch ``punch_width_mm`` wide on the top face and the mirror-minus-fiber-tip output row.
+    :func:`verify` solves it; studies may change its stiffness first (the part study's rigid
+    cores)."""
     from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
     from skfem.models.elasticity import linear_elasticity
 
@@ -369,18 +374,18 @@ def _problem(design: Design, points, triangles, plane_strain, punch_width_mm, cl
     pd = basis.get_dofs(punch)
     # probes just inside the body: rows 0-1 are u_x, rows 2-3 u_y of (mirror, fiber tip)
     P = basis.probes(np.array([[0.0, 0.0], [lay.output_point[1] + 1e-6, lay.post_top - 1e-6]])).tocsr()
-    return _Problem(basis, K, fixed, pd.all("u^2"), pd.all("u^1"), (P[2] - P[3]).toarray().ravel(),
+    return BodyProblem(basis, K, fixed, pd.all("u^2"), pd.all("u^1"), (P[2] - P[3]).toarray().ravel(),
                     lam, mu, design.sheet_thickness_mm)
 
 
-def _prescribed(pb: _Problem, travel_mm: float):
+def _prescribed(pb: BodyProblem, travel_mm: float):
     """Dof indices and values of the Dirichlet conditions at an input travel (down)."""
     idx = np.concatenate([pb.fixed, pb.punch_x, pb.punch_y])
     val = np.concatenate([np.zeros(len(pb.fixed) + len(pb.punch_x)), np.full(len(pb.punch_y), -travel_mm)])
     return idx, val
 
 
-def unit_travel_state(pb: _Problem) -> tuple[np.ndarray, float, float]:
+def unit_travel_state(pb: BodyProblem) -> tuple[np.ndarray, float, float]:
     """The linear state at 1 mm of input travel (the punch pushed down): displacements, the
     mirror's output travel down (mm; ``out_row`` reads it up-positive) and the punch's force
     (N)."""
@@ -401,7 +406,7 @@ def _solve_dirichlet(K, rhs, idx, val, u0=None):
     return u
 
 
-def _corner_gradients(pb: _Problem, u: np.ndarray) -> np.ndarray:
+def _corner_gradients(pb: BodyProblem, u: np.ndarray) -> np.ndarray:
     """Displacement gradients (2, 2, M, 3) at each triangle's three corners."""
     from skfem import Basis
 
@@ -410,7 +415,7 @@ def _corner_gradients(pb: _Problem, u: np.ndarray) -> np.ndarray:
     return np.asarray(vb.interpolate(u).grad)
 
 
-def _gradients_at(pb: _Problem, G: np.ndarray, xy: np.ndarray) -> np.ndarray:
+def _gradients_at(pb: BodyProblem, G: np.ndarray, xy: np.ndarray) -> np.ndarray:
     """Displacement gradients (2, 2, P, 1) at points ``xy`` (P, 2) inside the mesh, from the
     corner gradients ``G`` (2, 2, M, 3): a quadratic element's gradient is linear, so the
     barycentric interpolation of its corner values is exact."""
@@ -425,7 +430,7 @@ def _gradients_at(pb: _Problem, G: np.ndarray, xy: np.ndarray) -> np.ndarray:
     return np.einsum("ijpk,kp->ijp", G[:, :, elems, :], weights)[..., None]
 
 
-def _von_mises_of(pb: _Problem, G: np.ndarray, nu: float, plane_strain: bool, nonlinear: bool):
+def _von_mises_of(pb: BodyProblem, G: np.ndarray, nu: float, plane_strain: bool, nonlinear: bool):
     """Von Mises stress (MPa, shape G.shape[2:]) from displacement gradients G (2, 2, a, b):
     Cauchy stress of the SVK law (the linear law when not ``nonlinear``)."""
     if not nonlinear:
@@ -532,7 +537,7 @@ def _svk_forms(lam: float, mu: float):
     return tangent, internal
 
 
-def tangent_negative_modes(pb: _Problem, u: np.ndarray) -> int:
+def tangent_negative_modes(pb: BodyProblem, u: np.ndarray) -> int:
     """How many eigenvalues of the tangent stiffness at the state u, with the clamp and the
     punch held (the guided punch of the test, driven by its travel), are negative: 0 when
     the state is stable (an equilibrium is stable when the second variation of the
@@ -565,7 +570,7 @@ def negative_eigenvalues(H) -> int:
     return int((lu.U.diagonal() < 0).sum())
 
 
-def _newton_tl(pb: _Problem, u: np.ndarray, travel_mm: float, tol: float = 1e-9, max_iter: int = 25):
+def _newton_tl(pb: BodyProblem, u: np.ndarray, travel_mm: float, tol: float = 1e-9, max_iter: int = 25):
     """Total-Lagrangian equilibrium (St Venant-Kirchhoff) at an input travel, from u."""
     from skfem import asm
 
@@ -625,7 +630,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     # takes it); a jet twice that wide leaves it at every re-entrant corner
     rounding = 2.0 * root_radius_mm(design.replace(kerf_mm=kerf))
     points, triangles = mesh_profile(design, n_across, punch_width_mm, rounding)
-    pb = _problem(design, points, triangles, plane_strain, punch_width_mm, clamp)
+    pb = body_problem(design, points, triangles, plane_strain, punch_width_mm, clamp)
     triangles = pb.basis.mesh.t.T      # skfem sorts each triangle's corners: use its order
     u, out_lin, _ = unit_travel_state(pb)
     if not out_lin > 0:
@@ -638,7 +643,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         force = -float((pb.K @ u)[pb.punch_y].sum())
         energy = 0.5 * float(u @ (pb.K @ u))
     else:
-        u, travel, force = _nonlinear_to_target(pb, u * travel, travel, target_output_mm, increments)
+        u, travel, force = nonlinear_to_target(pb, u * travel, travel, target_output_mm, increments)
         energy = _svk_energy(pb, u)
         negative = tangent_negative_modes(pb, u)
     out = -float(pb.out_row @ u)
@@ -665,9 +670,12 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         negative_modes=negative)
 
 
-def _nonlinear_to_target(pb, u_lin, travel_lin, target, increments):
-    """Newton in input-travel increments, then secant steps on the travel until the output
-    travel equals ``target`` (relative 1e-9). Returns (u, input travel, input force)."""
+def nonlinear_to_target(pb: BodyProblem, u_lin, travel_lin, target, increments):
+    """The geometrically nonlinear state (St Venant-Kirchhoff, total Lagrangian) at the output
+    travel ``target`` (mm), from the linear state ``u_lin`` at the input travel ``travel_lin``
+    (mm) estimated to give it: Newton in ``increments`` increments of input travel, then
+    secant steps on the travel until the output travel equals ``target`` (relative 1e-9).
+    Returns (u, input travel mm, input force N)."""
     u = np.zeros_like(u_lin)
     travel = travel_lin
     for k in range(1, increments + 1):
@@ -691,7 +699,7 @@ def _nonlinear_to_target(pb, u_lin, travel_lin, target, increments):
     return u, history[-1][0], force
 
 
-def _svk_energy(pb: _Problem, u: np.ndarray) -> float:
+def _svk_energy(pb: BodyProblem, u: np.ndarray) -> float:
     """Strain energy (mJ) of the St Venant-Kirchhoff law: integral of lam/2 tr(E)^2 + mu E:E."""
     from skfem import Functional, asm
 

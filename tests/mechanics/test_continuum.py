@@ -282,11 +282,11 @@ def test_peak_is_at_the_fillet_and_above_the_neck_stress():
 
 def _strip_problem(length_mm: float, width_mm: float, E: float = 2300.0, nu: float = 0.35):
     """A straight strip standing on its clamped bottom edge, its top edge held sideways and
-    pushed down (the punch of :func:`sensor.mechanics.continuum._problem`), plane stress."""
+    pushed down (the punch of :func:`sensor.mechanics.continuum.body_problem`), plane stress."""
     from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
     from skfem.models.elasticity import linear_elasticity
 
-    from sensor.mechanics.continuum import _lame, _Problem
+    from sensor.mechanics.continuum import _lame, BodyProblem
 
     mesh = MeshTri.init_tensor(np.linspace(0, width_mm, 5), np.linspace(0, length_mm, 121))
     basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
@@ -294,7 +294,7 @@ def _strip_problem(length_mm: float, width_mm: float, E: float = 2300.0, nu: flo
     K = asm(linear_elasticity(lam, mu), basis)
     fixed = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] < 1e-9)).all()
     top = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] > length_mm - 1e-9))
-    return _Problem(basis, K, fixed, top.all("u^2"), top.all("u^1"), np.zeros(K.shape[0]), lam, mu, 1.0)
+    return BodyProblem(basis, K, fixed, top.all("u^2"), top.all("u^1"), np.zeros(K.shape[0]), lam, mu, 1.0)
 
 
 @pytest.mark.parametrize("factor, modes", [(0.99, 0), (1.01, 1), (5.0, 3)])
