@@ -469,8 +469,8 @@ def beyond_bounds(problem: DesignProblem, Z, counter: list | None = None) -> boo
     within them, range growing with every hinge) or does not solve. ``counter``: as
     :func:`scale_to_range`'s."""
     Z = np.atleast_2d(Z)
-    t = Z[:, problem.n_angles:]
-    inside = ~((t.min(axis=1) > problem.upper[-1]) | (t.max(axis=1) < problem.lower[-1]))
+    k = problem.n_angles
+    inside = ~((Z[:, k:] > problem.upper[k:]).all(axis=1) | (Z[:, k:] < problem.lower[k:]).all(axis=1))
     if not inside.any():
         return True
     if counter is not None:
