@@ -56,7 +56,7 @@ class HingeStress:
 #: with a tall shoulder): the least-squares fit to the continuum FE's converged peak stress
 #: in the fillets of the cut-part entries of tests/mechanics/data/continuum_table.json that
 #: are not held out (kerf 0.4-1.2 mm, hinges 0.25-1.5 mm, every hinge carrying at least half
-#: its body's largest peak: 221 hinges, RMS 1.9 %; 5.2 % at most on the 313 of all entries);
+#: its body's largest peak: 221 hinges, RMS 1.9 %; 5.2 % at most on the 361 of all entries);
 #: checked within 10 % on every entry in tests/mechanics/test_root_rule.py.
 KT_SCALE = 0.232
 KT_EXPONENT = 0.825

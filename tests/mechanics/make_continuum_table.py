@@ -11,8 +11,9 @@ Two parts:
 * ``entries``: the part as cut (root fillets r = kerf / 2, kerf 0 = the drawing), in the
   families of :func:`entries`: the thesis specimens and ``dacm design`` outputs, a kerf
   sweep (0, 0.4, 0.8, 1.2 mm), thick hinges (t / L up to 0.7), the basis family (hinges 1-8
-  from 0.3 to 1.25 mm) and ``dacm design``-like bodies (unequal pairs 0.3-0.9 mm, phi1
-  15-32, phi2 8-30, delrin and ABS). Each holds the full design (its ``kerf_mm`` the kerf
+  from 0.3 to 1.25 mm), ``dacm design``-like bodies (unequal pairs 0.3-0.9 mm, phi1
+  15-32, phi2 8-30, delrin and ABS) and the seven answers of the README's design table
+  (:data:`DESIGN_TABLE`). Each holds the full design (its ``kerf_mm`` the kerf
   solved), the linear limit at 1 mm output from three meshes (3, 4.24 and 6 across; 6, 8.49
   and 12 when those are not converged within 1 %) with Richardson extrapolation and its
   stated convergence, the per-hinge FE peak von Mises
@@ -23,8 +24,9 @@ Two parts:
   solve of that same mesh beside it, so the mesh error can be taken out, and whether the
   state reached is stable: ``--nonlinear-only`` recomputes just that part), and the seconds
   each took. ``held_out`` marks the entries no fit may use: in each family every third
-  entry (index 2, 5, 8, ...), a rule fixed before any fit. The 50 entries took 78 min on
-  one core (the sum of their stored seconds; 30 s to 9 min an entry).
+  entry (index 2, 5, 8, ...), a rule fixed before any fit, and every entry of the families
+  in :data:`HELD_OUT_FAMILIES` (added after the fits). The 57 entries took 86 min on one
+  core (the sum of their stored seconds; 30 s to 9 min an entry).
 
 Entries are written one by one as they finish (partial tables are usable) and the run
 resumes where it stopped; ``--shard I/N`` splits the entries over N processes that write
@@ -74,6 +76,26 @@ DESIGN_5N = (25.22, 11.24, (0.2685, 0.2533, 0.2736, 0.8324, 0.8324, 0.2736, 0.25
                             0.2578, 0.2502, 0.2502, 0.2578))
 BASIS_5N = (32.12, None, (0.3721, 0.6208, 0.5601, 1.2411, 1.2411, 0.5601, 0.6208, 0.3721,
                           0.5, 0.5, 0.5, 0.5))
+#: ``dacm design``'s answers of the README's design table at commit bb020e7
+#: (examples/design_table.py: delrin, 1 mm travel, kerf 0.8 mm): name -> (phi1, phi2, hinges
+#: 1-12 in mm; the basis body's hinges 9-12 are not cut). Entries of their own family, all
+#: held out: what the tool tells a user to cut, checked against the continuum.
+DESIGN_TABLE = {
+    "answer-proposed-2N": (32.8, 20.57, (0.3,) * 12),
+    "answer-proposed-5N": (32.8, 12.1, (0.3, 0.3, 0.3, 0.8, 0.8, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3)),
+    "answer-proposed-10N": (32.8, 9.07, (0.4878, 0.3, 0.3035, 0.8, 0.8, 0.3035, 0.3, 0.4878,
+                                         0.3, 0.3, 0.3, 0.3)),
+    "answer-proposed-15N": (30.9, 7.65, (0.5293, 0.3, 0.3, 0.7957, 0.7957, 0.3, 0.3, 0.5293,
+                                         0.3, 0.3, 0.3, 0.3)),
+    "answer-basis-1N": (32.8, None, (0.3542, 0.3847, 0.3, 0.5201, 0.5201, 0.3, 0.3847, 0.3542,
+                                     0.5, 0.5, 0.5, 0.5)),
+    "answer-basis-2N": (32.8, None, (0.4805, 0.458, 0.3392, 0.6993, 0.6993, 0.3392, 0.458, 0.4805,
+                                     0.5, 0.5, 0.5, 0.5)),
+    "answer-basis-5N": (32.8, None, (0.77, 0.6449, 0.6403, 0.8, 0.8, 0.6403, 0.6449, 0.77,
+                                     0.5, 0.5, 0.5, 0.5)),
+}
+#: Families no fit may use at all (every entry held out), beside every third entry of the others.
+HELD_OUT_FAMILIES = ("design-table",)
 #: The materials the table was solved with (k_out and stresses scale with E exactly, A does
 #: not depend on it): delrin at the thesis' 2.3 GPa, whatever the tool's calibrated E is.
 FE_MATERIALS = {"delrin": Material("delrin", 2300.0, 0.35, 36.0), "abs": Material("abs", 1800.0, 0.35, 20.0)}
@@ -133,7 +155,9 @@ def families() -> dict[str, list[Design]]:
         mat = FE_MATERIALS["abs" if i % 4 == 3 else "delrin"]
         like.append(body(phi1, phi2, _paired(rng.uniform(0.3, 0.9, 6)), f"like-{i}-{mat.name}",
                           material=mat))
-    return {"key": key, "kerf": kerf, "thick": thick, "basis": basis, "design-like": like}
+    table = [body(*v, name) for name, v in DESIGN_TABLE.items()]
+    return {"key": key, "kerf": kerf, "thick": thick, "basis": basis, "design-like": like,
+            "design-table": table}
 
 
 def entries() -> dict[str, tuple[str, bool, Design]]:
@@ -143,7 +167,7 @@ def entries() -> dict[str, tuple[str, bool, Design]]:
     for i in range(max(len(v) for v in fams.values())):
         for fam, designs in fams.items():
             if i < len(designs):
-                out[designs[i].name] = (fam, i % 3 == 2, designs[i])
+                out[designs[i].name] = (fam, fam in HELD_OUT_FAMILIES or i % 3 == 2, designs[i])
     return out
 
 
