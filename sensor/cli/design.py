@@ -16,7 +16,8 @@ FLAGS = {"range_N": "--range", "travel_mm": "--travel", "hinge_min_mm": "--hinge
          "hinge_max_mm": "--hinge-max", "min_yield": "--min-yield", "seed": "--seed", "kerf": "--kerf",
          "draws": "--draws"}
 KEYS = ("design", "range_N", "hysteresis", "resolution_N", "amplification", "k_out_N_per_mm",
-        "strain_energy_mJ", "stress_utilisation")
+        "strain_energy_mJ", "stress_utilisation", "k_out_stroke_ratio", "amplification_stroke_ratio",
+        "near_toggle")
 
 
 def register(subparsers) -> None:

@@ -54,9 +54,9 @@ def run(args: argparse.Namespace) -> int:
     from sensor.mechanics.hysteresis import DEFAULT_LAW
     from sensor.mechanics.qualifiers import qualify
     from geometry.params import cut_note
-    from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
-    from sensor.mechanics.solver import SolverOptions, scaled_result, solve
+    from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION, SolverOptions, scaled_result, solve
     from sensor.mechanics.stress import hinge_stresses, stress_check
+    from sensor.mechanics.toggle import stroke_change
 
     check_flags(args, RULES)
     if args.model is not None:
@@ -80,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
               options=SolverOptions(increments=args.increments))
     if args.linear:
         r = scaled_result(r, 1.0 / scale)
+    # how much k_out and A change from the linear limit to the state solved (not asked of --linear)
+    change = None if args.linear else stroke_change(model, r, SolverOptions(increments=args.increments))
     q = qualify(r, DEFAULT_LAW)
     stress = stress_check(design, model, r) if design is not None else None
     hinge_stress = {str(h): s.peak_MPa for h, s in hinge_stresses(model, r).items()}
@@ -105,6 +107,9 @@ def run(args: argparse.Namespace) -> int:
         "hinge_stress_MPa": hinge_stress,
         "peak_stress_MPa": max(hinge_stress.values()),
         "stress_utilisation": None if stress is None else stress.utilisation,
+        "k_out_stroke_ratio": None if change is None else change.k_out_ratio,
+        "amplification_stroke_ratio": None if change is None else change.amplification_ratio,
+        "near_toggle": None if change is None else change.near_toggle,
     }
     require_finite(f"solve of {name}", out)
     if args.json:
@@ -124,7 +129,11 @@ def run(args: argparse.Namespace) -> int:
             ("peak hinge stress", ", ".join(f"{k}: {v:.1f}" for k, v in hinge_stress.items()) + " MPa")]
     if stress is not None:
         rows.append(("stress rule", stress.message + f" (utilisation {stress.utilisation:.2f})"))
+    if change is not None:
+        rows.append(("from the linear limit", f"k_out x {change.k_out_ratio:.3f}, A x {change.amplification_ratio:.3f}"))
     print(f"{name} ({cut_note(None if design is None else design.kerf_mm)})" + ("  linear limit" if args.linear else ""))
     for k, v in rows:
         print(f"  {k:<26} {v}")
+    if change is not None and change.near_toggle:
+        print(f"  warning: {change.warning()}")
     return 0

@@ -42,14 +42,17 @@ def write_design_files(folder: Path, design, basis_design, datasheet: dict, tole
 
 
 def body_lines(label: str, d: dict) -> list[str]:
-    """The two lines that describe a body of ``describe``'s dict (angles, hinges, range, H,
-    resolution, A, k_out, SE, stress)."""
+    """The lines that describe a body of ``describe``'s dict (angles, hinges, range, H,
+    resolution, A, k_out, SE, stress; a warning next to the toggle)."""
     from geometry.params import design_from_dict
+    from sensor.mechanics.toggle import StrokeChange
 
     f = d["design"]
     used = design_from_dict(f).used_thickness_mm
     angles = f"phi1 = {f['phi1_deg']:.2f}" + (f", phi2 = {f['phi2_deg']:.2f}" if "phi2_deg" in f else "")
+    warning = StrokeChange(d["k_out_stroke_ratio"], d["amplification_stroke_ratio"]).warning()
     return [f"  {label:<12} {angles} deg, hinges {' '.join(f'{t:.4f}' for t in used)} mm",
             f"               range {d['range_N']:.4f} N, H = {d['hysteresis']:.4f}, resolution "
             f"{1e3 * d['resolution_N']:.3f} mN, A = {d['amplification']:.3f}, k_out {d['k_out_N_per_mm']:.3f} N/mm, "
-            f"SE {d['strain_energy_mJ']:.4f} mJ, stress {d['stress_utilisation']:.3f} x allowable"]
+            f"SE {d['strain_energy_mJ']:.4f} mJ, stress {d['stress_utilisation']:.3f} x allowable"] + (
+        [f"               warning: {warning}"] if warning else [])

@@ -689,6 +689,7 @@ def describe(design: Design, problem: DesignProblem) -> dict:
     resolution from the full sensor model): the keys of ``dacm design --json``."""
     from dataclasses import asdict
 
+    from sensor.mechanics.toggle import stroke_change
     from sensor.readout.datasheet import datasheet
     from sensor.readout.sensor_model import build_sensor
 
@@ -696,10 +697,13 @@ def describe(design: Design, problem: DesignProblem) -> dict:
     if m is None:
         raise DesignError(f"design {design.name}: does not solve to the travel {problem.travel_mm:g} mm ({r})")
     q = qualify(r, problem.law)
+    change = stroke_change(m, r)
     sheet = datasheet(build_sensor(design, law=problem.law, target_output_mm=problem.travel_mm),
                       material=design.material.name)
     return {"design": design_to_dict(design), "range_N": q.range_N, "hysteresis": q.hysteresis,
             "resolution_N": sheet.resolution_N, "amplification": q.amplification,
             "k_out_N_per_mm": q.k_out_N_per_mm, "strain_energy_mJ": q.strain_energy_mJ,
             "stress_utilisation": stress_check(design, m, r).utilisation,
-            "quality_mm_per_N": q.quality_mm_per_N, "datasheet": asdict(sheet)}
+            "quality_mm_per_N": q.quality_mm_per_N, "k_out_stroke_ratio": change.k_out_ratio,
+            "amplification_stroke_ratio": change.amplification_ratio, "near_toggle": change.near_toggle,
+            "datasheet": asdict(sheet)}

@@ -41,6 +41,7 @@ from geometry.layout import make_layout, make_parts
 from geometry.params import FIELD_RULES, Design, cut_note
 from geometry.validation import Number
 from sensor.errors import ConvergenceError, SensorInputError, SolverError
+from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION
 
 #: Quadratic elements across each hinge's thickness, per mesh level (the rest of the body
 #: scales with it). Consecutive levels differ by sqrt(2) in size, as Richardson needs.
@@ -832,10 +833,6 @@ def knee_motion_beam(design: Design, model, result) -> dict:
     turn = result.node_rotation_rad[node]
     return {"knee_outward_per_input": float(-ux / result.input_travel_mm),
             "knee_rotation_per_input_rad_per_mm": float(turn / result.input_travel_mm)}
-
-
-#: Output travel (fraction of the target) of the beam model's linear-limit solve.
-LINEAR_LIMIT_FRACTION = 1e-3
 
 
 @dataclass(frozen=True, eq=False)

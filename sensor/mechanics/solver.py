@@ -53,6 +53,9 @@ from sensor.errors import (
 from sensor.mechanics import _solver_kernel as _kernel
 
 SHEAR_FORM_FACTOR = 6.0 / 5.0  # rectangle, in the shear term of eqs 80-81
+#: Output travel (fraction of the target) of the beam model's linear-limit solve (``dacm solve
+#: --linear``, the continuum comparisons' linear limit).
+LINEAR_LIMIT_FRACTION = 1e-3
 
 
 # --- member stiffness from Castigliano (eqs 80-82) -----------------------------------------

@@ -34,8 +34,10 @@ def test_design_json_files_and_solve_reproduces_it(quick, tmp_path, capsys):
         assert (tmp_path / name).stat().st_size > 0, name
     assert main(["solve", "--config", str(tmp_path / "design.toml"), "--json"]) == 0
     solved = json.loads(capsys.readouterr().out)
-    for k in ("range_N", "amplification", "k_out_N_per_mm", "strain_energy_mJ"):
+    for k in ("range_N", "amplification", "k_out_N_per_mm", "strain_energy_mJ", "k_out_stroke_ratio",
+              "amplification_stroke_ratio"):
         assert solved[k] == pytest.approx(out[k], rel=1e-6), k
+    assert solved["near_toggle"] is out["near_toggle"] and out["basis"]["near_toggle"] is False
     assert solved["hysteresis_fraction"] == pytest.approx(out["hysteresis_fraction"], rel=1e-6)
     sheet = json.loads((tmp_path / "design-datasheet.json").read_text())
     assert sheet["resolution_N"] == pytest.approx(out["resolution_N"])

@@ -68,3 +68,32 @@ def test_argument_errors_are_one_line_with_status_2(argv, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "error:" in err[0] and "--help" in err[0]
+
+
+def test_solve_says_how_k_out_and_a_change_over_the_stroke_and_warns_next_to_the_toggle(tmp_path, capsys):
+    """The ratios are those of the beam model's linear limit (its own solve), ``near_toggle``
+    is the flag of sensor/mechanics/toggle.py (checked against the continuum in
+    tests/mechanics/test_toggle.py); the 15 N answer of the design table is flagged, sample B
+    is not, and ``--linear`` has no stroke to report."""
+    from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION
+
+    assert main(["solve", "--preset", "sample-b", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    model = build_beam_model(preset("sample-b"))
+    linear = solve(model, target_output_mm=LINEAR_LIMIT_FRACTION)
+    assert out["k_out_stroke_ratio"] == pytest.approx(out["k_out_N_per_mm"] / linear.k_out_N_per_mm, rel=1e-9)
+    assert out["amplification_stroke_ratio"] == pytest.approx(out["amplification"] / linear.amplification, rel=1e-9)
+    assert out["near_toggle"] is False
+    assert main(["solve", "--preset", "sample-b"]) == 0
+    text = capsys.readouterr().out
+    assert f"k_out x {out['k_out_stroke_ratio']:.3f}" in text and "warning" not in text
+    config = tmp_path / "answer-15N.toml"
+    config.write_text('phi1_deg = 30.9\nphi2_deg = 7.65\nhinge_set = "custom"\nname = "answer-15N"\n'
+                      "hinge_thickness_mm = [0.5293, 0.3, 0.3, 0.7957, 0.7957, 0.3, 0.3, 0.5293, 0.3, 0.3, 0.3, 0.3]\n")
+    assert main(["solve", "--config", str(config), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["near_toggle"] is True
+    assert main(["solve", "--config", str(config)]) == 0
+    warning = [line for line in capsys.readouterr().out.splitlines() if "warning" in line]
+    assert len(warning) == 1 and "next to the toggle" in warning[0] and "dacm verify --nonlinear" in warning[0]
+    assert main(["solve", "--preset", "sample-b", "--linear", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["near_toggle"] is None
