@@ -22,6 +22,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         "mechanics.solver": ["SolveResult", "SolverOptions", "solve", "solve_batch"],
         "mechanics.qualifiers": ["Qualifiers", "qualify"],
         "mechanics.hysteresis": ["DEFAULT_LAW", "StrainEnergyLaw", "hysteresis"],
+        "mechanics.toggle": ["StrokeChange", "stroke_change"],
         "readout.sensor_model": ["Readout", "build_sensor"],
         "readout.optics": ["OpticsSetup"],
         "readout.datasheet": ["datasheet"],
