@@ -1,6 +1,7 @@
 """The README's headline table: `dacm design`'s answers at 1, 2, 5, 10 and 15 N (delrin, 1 mm
 travel, the water-jet process), nominal and robust, proposed and basis body, each with the
-tolerance report of the parts cut from it (200 draws, seed 0). Rewrites the block between the
+tolerance report of the parts cut from it (200 draws, seed 0) and whether it sits next to
+the toggle (sensor/mechanics/toggle.py). Rewrites the block between the
 ``design-table`` markers of README.md and writes docs/design-table.json.
 
     python examples/design_table.py [--workers N]
@@ -38,13 +39,27 @@ def answers(range_N: float, body: str, pool) -> dict:
         return {"nominal": _nominal(nominal), "robust_error": str(exc)}
     return {"nominal": _nominal(nominal),
             "robust": {"met": rob.met, "why": rob.why, "seconds": rob.seconds, "angles": _angles(rob.design),
-                       "hinges_mm": list(rob.design.used_thickness_mm), "tolerance": rob.tolerance.to_dict()}}
+                       "hinges_mm": list(rob.design.used_thickness_mm), "tolerance": rob.tolerance.to_dict(),
+                       **_stroke(rob.design)}}
 
 
 def _nominal(nominal) -> dict:
     return {"hysteresis": nominal.hysteresis, "seconds": nominal.seconds, "design": nominal.design.name,
             "angles": _angles(nominal.design), "hinges_mm": list(nominal.design.used_thickness_mm),
-            "tolerance": tolerance(nominal.design).to_dict()}
+            "tolerance": tolerance(nominal.design).to_dict(), **_stroke(nominal.design)}
+
+
+def _stroke(design) -> dict:
+    """How k_out and A change over the stroke to 1 mm, and whether that is next to the toggle
+    (sensor/mechanics/toggle.py)."""
+    from geometry.topology import build_beam_model
+    from sensor.mechanics.solver import solve
+    from sensor.mechanics.toggle import stroke_change
+
+    model = build_beam_model(design)
+    change = stroke_change(model, solve(model, target_output_mm=1.0))
+    return {"k_out_stroke_ratio": change.k_out_ratio, "amplification_stroke_ratio": change.amplification_ratio,
+            "near_toggle": change.near_toggle}
 
 
 def _angles(d) -> str:
@@ -54,7 +69,8 @@ def _angles(d) -> str:
 def _cell(a: dict) -> str:
     t = a["tolerance"]
     return (f"{a['angles']}, {min(a['hinges_mm']):.2f}-{max(a['hinges_mm']):.2f} mm: H {t['hysteresis_fraction_p50']:.4f}, "
-            f"range {t['range_N_p5']:.2f}-{t['range_N_p95']:.2f} N, P(stress) {100 * t['p_over_stress']:.0f} %")
+            f"range {t['range_N_p5']:.2f}-{t['range_N_p95']:.2f} N, P(stress) {100 * t['p_over_stress']:.0f} %"
+            + (f"; next to the toggle (k_out x {a['k_out_stroke_ratio']:.1f} over the stroke)" if a["near_toggle"] else ""))
 
 
 def table(results: dict) -> str:
