@@ -55,6 +55,7 @@ def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
     (["--punch-width", "0"], "--punch-width = 0.0"),
     (["--preset", "basis", "--punch-width", "30"], "--punch-width = 30.0"),
     (["--preset", "basis", "--phi1", "20"], "--phi1 cannot be combined with --preset"),
+    (["--preset", "basis", "--nonlinear", "--nonlinear-meshes", "2"], "--nonlinear-meshes = 2: must be 1 or 3"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, fragment, capsys):
     assert main(["verify"] + argv) == 2
@@ -169,8 +170,9 @@ def test_a_beam_model_that_goes_unstable_is_reported_beside_the_fe(tmp_path, cap
     out = json.loads(capsys.readouterr().out)
     assert out["beam"] == {"unstable": "increment 4: the equilibrium at input force 104.8 N is unstable"}
     assert out["errors_pct"] == {} and out["fe"]["k_out_N_per_mm"] > 0
-    assert out["stability"]["stable"] is True
+    assert out["stability"]["stable"] is True and out["options"]["nonlinear_meshes"] == 1
     assert main(argv) == 0
     text = capsys.readouterr().out
+    assert "nonlinear on that mesh, the coarsest of three solved linear" in text
     assert "beam model: increment 4: the equilibrium at input force 104.8 N is unstable" in text
     assert "the continuum state" not in text   # the FE's own state is stable
