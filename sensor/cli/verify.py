@@ -39,7 +39,7 @@ def register(subparsers) -> None:
     p.add_argument("--nonlinear-meshes", type=int, default=1, metavar="N",
                    help="with --nonlinear: 1 (default) solves the three meshes linear and the "
                         "coarsest nonlinear, its mesh error taken from the linear study (the "
-                        "continuum table's method, a fifth of the time); 3 solves all three nonlinear")
+                        "continuum table's method, a sixth of the time); 3 solves all three nonlinear")
     p.add_argument("--kerf", type=float, metavar="MM",
                    help="cutting kerf: re-entrant corners rounded by a jet of this width "
                         "(default the design's kerf_mm, 0.8; 0: the drawn profile, sharp corners)")
