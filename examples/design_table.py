@@ -57,9 +57,7 @@ def _stroke(design) -> dict:
     from sensor.mechanics.toggle import stroke_change
 
     model = build_beam_model(design)
-    change = stroke_change(model, solve(model, target_output_mm=1.0))
-    return {"k_out_stroke_ratio": change.k_out_ratio, "amplification_stroke_ratio": change.amplification_ratio,
-            "near_toggle": change.near_toggle}
+    return stroke_change(model, solve(model, target_output_mm=1.0)).to_dict()
 
 
 def _angles(d) -> str:

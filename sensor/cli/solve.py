@@ -56,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     from geometry.params import cut_note
     from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION, SolverOptions, scaled_result, solve
     from sensor.mechanics.stress import hinge_stresses, stress_check
-    from sensor.mechanics.toggle import stroke_change
+    from sensor.mechanics.toggle import JSON_KEYS, stroke_change
 
     check_flags(args, RULES)
     if args.model is not None:
@@ -107,9 +107,7 @@ def run(args: argparse.Namespace) -> int:
         "hinge_stress_MPa": hinge_stress,
         "peak_stress_MPa": max(hinge_stress.values()),
         "stress_utilisation": None if stress is None else stress.utilisation,
-        "k_out_stroke_ratio": None if change is None else change.k_out_ratio,
-        "amplification_stroke_ratio": None if change is None else change.amplification_ratio,
-        "near_toggle": None if change is None else change.near_toggle,
+        **(dict.fromkeys(JSON_KEYS) if change is None else change.to_dict()),
     }
     require_finite(f"solve of {name}", out)
     if args.json:

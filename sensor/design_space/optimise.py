@@ -697,13 +697,11 @@ def describe(design: Design, problem: DesignProblem) -> dict:
     if m is None:
         raise DesignError(f"design {design.name}: does not solve to the travel {problem.travel_mm:g} mm ({r})")
     q = qualify(r, problem.law)
-    change = stroke_change(m, r)
     sheet = datasheet(build_sensor(design, law=problem.law, target_output_mm=problem.travel_mm),
                       material=design.material.name)
     return {"design": design_to_dict(design), "range_N": q.range_N, "hysteresis": q.hysteresis,
             "resolution_N": sheet.resolution_N, "amplification": q.amplification,
             "k_out_N_per_mm": q.k_out_N_per_mm, "strain_energy_mJ": q.strain_energy_mJ,
             "stress_utilisation": stress_check(design, m, r).utilisation,
-            "quality_mm_per_N": q.quality_mm_per_N, "k_out_stroke_ratio": change.k_out_ratio,
-            "amplification_stroke_ratio": change.amplification_ratio, "near_toggle": change.near_toggle,
+            "quality_mm_per_N": q.quality_mm_per_N, **stroke_change(m, r).to_dict(),
             "datasheet": asdict(sheet)}

@@ -32,6 +32,8 @@ from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION, SolveResult, SolverOp
 STIFFENING_LIMIT = 2.2
 #: A at full scale over A in the linear limit below which it does.
 A_FALL_LIMIT = 0.8
+#: The keys a command's JSON gives a :class:`StrokeChange` under (:meth:`StrokeChange.to_dict`).
+JSON_KEYS = ("k_out_stroke_ratio", "amplification_stroke_ratio", "near_toggle")
 
 
 @dataclass(frozen=True)
@@ -45,6 +47,10 @@ class StrokeChange:
     def near_toggle(self) -> bool:
         """Past :data:`STIFFENING_LIMIT` or :data:`A_FALL_LIMIT` (module docstring)."""
         return self.k_out_ratio > STIFFENING_LIMIT or self.amplification_ratio < A_FALL_LIMIT
+
+    def to_dict(self) -> dict:
+        """The JSON keys of ``dacm solve`` and ``dacm design`` (:data:`JSON_KEYS`)."""
+        return dict(zip(JSON_KEYS, (self.k_out_ratio, self.amplification_ratio, self.near_toggle)))
 
     def warning(self) -> str:
         """One line for a body next to the toggle ("" otherwise)."""
