@@ -57,7 +57,7 @@ def _stroke(design) -> dict:
     from sensor.mechanics.toggle import stroke_change
 
     model = build_beam_model(design)
-    return stroke_change(model, solve(model, target_output_mm=1.0)).to_dict()
+    return stroke_change(model, solve(model, target_output_mm=1.0), design.phi2_deg).to_dict()
 
 
 def _angles(d) -> str:

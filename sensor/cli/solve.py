@@ -80,8 +80,10 @@ def run(args: argparse.Namespace) -> int:
               options=SolverOptions(increments=args.increments))
     if args.linear:
         r = scaled_result(r, 1.0 / scale)
-    # how much k_out and A change from the linear limit to the state solved (not asked of --linear)
-    change = None if args.linear else stroke_change(model, r, SolverOptions(increments=args.increments))
+    # how much k_out and A change from the linear limit to the state solved (not asked of
+    # --linear); a --model has no phi2: only its stroke can mark it as next to the toggle
+    change = None if args.linear else stroke_change(model, r, None if design is None else design.phi2_deg,
+                                                    SolverOptions(increments=args.increments))
     q = qualify(r, DEFAULT_LAW)
     stress = stress_check(design, model, r) if design is not None else None
     hinge_stress = {str(h): s.peak_MPa for h, s in hinge_stresses(model, r).items()}

@@ -14,6 +14,7 @@ Method: multi-start SLSQP (:func:`scipy.optimize.minimize`, method "SLSQP") on
                 utilisation <= 1 - STRESS_SLACK         (peak hinge stress / allowable)
                 phi2 <= phi2 edge of the feasible angles (:class:`AngleDomain`)
                 H < H_LIMIT                             (the answer's; SE is minimised)
+                off the toggle (``off_toggle`` only)     (:mod:`sensor.mechanics.toggle`)
                 hinge_min <= t <= hinge_max             (bounds)
 
 with forward-difference gradients whose perturbed bodies are solved together in one batch
@@ -26,6 +27,13 @@ hinge bounds, matched to the range again with the free hinges, written values ro
 ends feasible, or every start scaled to the range lies past the hinge bounds (the search is
 then skipped), the reachable interval (:mod:`sensor.design_space.reach`) decides: outside it
 the range is refused, naming it; inside it the search starts again from its bodies.
+
+With ``off_toggle`` every body must also stay off the toggle
+(:attr:`~sensor.mechanics.toggle.StrokeChange.near_toggle` false), where the beam model's
+full-scale numbers have met the continuum: phi2 at least :data:`OFF_TOGGLE_PHI2_DEG` (a
+bound), k_out growing at most 2.2 x and A falling to no less than 0.8 x over the stroke (two
+more inequality rows, each body's linear limit solved in the same batch: about 5 % more time
+a body); its reachable interval is that of the bodies off the toggle.
 """
 
 from __future__ import annotations
@@ -82,6 +90,16 @@ SLSQP_ITERATIONS, SLSQP_FTOL, OBJECTIVE_SCALE = 100, 1e-8, 0.03
 STARTS, FINALISTS = 12, 6
 #: A failed solve's objective/constraint values (far from feasible, finite for SLSQP).
 FAILED = 10.0
+#: With ``off_toggle``, the least phi2 (deg): a degree above the flag's
+#: :data:`~sensor.mechanics.toggle.PHI2_LIMIT_DEG`. The search ends on it, and the beam
+#: model's error at 1 mm grows as phi2 falls (held-out bodies of the continuum table: 11.1
+#: to 11.5 deg met both targets with up to +2.3 % on k_out and +1.5 % on A).
+OFF_TOGGLE_PHI2_DEG = 12.0
+#: The search's rows keep the stroke's log margins to the flag's limits
+#: (:attr:`~sensor.mechanics.toggle.StrokeChange.log_margins`) at least this, so that the
+#: written values' rounding (0.01 deg moves the k_out ratio by about 0.1 % next to the
+#: toggle) cannot put the answer past them.
+TOGGLE_ROUNDING = 0.005
 
 _RANGE = Number(0.0, 1e4, lo_open=True, unit="N")
 _THICKNESS = Number(0.0, 10.0, lo_open=True, unit="mm")
@@ -96,7 +114,9 @@ class DesignProblem:
     ``pairs``: the hinge groups that share one thickness (default the mirror pairs; one
     group of every hinge gives equal hinges); ``base``: other Design fields; ``process``:
     the cutting process, whose ``min_drawn_hinge_mm`` is the default ``hinge_min_mm``;
-    ``hinge_max_mm`` defaults to the link width (a hinge is a neck of its link)."""
+    ``hinge_max_mm`` defaults to the link width (a hinge is a neck of its link);
+    ``off_toggle``: every DACM must stay off the toggle (module docstring; the basis body has
+    none)."""
 
     range_N: float
     travel_mm: float = 1.0
@@ -108,11 +128,14 @@ class DesignProblem:
     base: dict = field(default_factory=dict)
     process: Process = WATER_JET
     law: StrainEnergyLaw = DEFAULT_LAW
+    off_toggle: bool = False
 
     def __post_init__(self):
         _RANGE.check("range_N", self.range_N, DesignError)
         if self.body not in ("proposed", "basis"):
             raise DesignError(f"body = {self.body!r}: must be 'proposed' or 'basis'")
+        if self.off_toggle and self.body == "basis":
+            raise DesignError("off_toggle = True: the basis body has no toggle (it has no middle branch)")
         ref = self.reference
         Number(0.0, ref.height_mm, lo_open=True, unit="mm, at most the body's height").check(
             "travel_mm", self.travel_mm, DesignError)
@@ -211,7 +234,8 @@ class DesignProblem:
 class AngleDomain:
     """The feasible angles (deg) of a problem's body with every hinge at ``hinge_max_mm``
     (thinner hinges only widen the gaps): phi1 in [lower[0], upper[0]]; for the proposed body
-    phi2 in [PHI2_BOUNDS[0], ``phi2_edge(phi1)``], the edge found by bisection on
+    phi2 in [PHI2_BOUNDS[0] (:data:`OFF_TOGGLE_PHI2_DEG` for an ``off_toggle`` problem),
+    ``phi2_edge(phi1)``], the edge found by bisection on
     :func:`geometry.checks.check_design` at every degree of phi1 and interpolated linearly
     (0.05 deg inside the found edge)."""
 
@@ -224,7 +248,7 @@ class AngleDomain:
     def of(cls, problem: DesignProblem) -> "AngleDomain":
         ref = problem.reference.replace(hinge_thickness_mm=(problem.hinge_max_mm,) * 12)
         hi1 = phi1_limit_deg(ref) - 0.05
-        phi2_lo = PHI2_BOUNDS[0]
+        phi2_lo = OFF_TOGGLE_PHI2_DEG if problem.off_toggle else PHI2_BOUNDS[0]
 
         def ok(p1, p2=None):
             return check_design(ref.replace(phi1_deg=p1, phi2_deg=p2)).feasible
@@ -262,7 +286,10 @@ def _bisect(feasible, a: float, b: float, feasible_high: bool, steps: int = 12) 
 class Point:
     """One evaluated body: its variables, design, log range error, log strain energy, each
     used hinge's stress utilisation (peak / allowable; FAILED for a failed solve) and the
-    phi2 margin to the angle domain's edge (deg; inf for the basis)."""
+    phi2 margin to the angle domain's edge (deg; inf for the basis) and, for an
+    ``off_toggle`` problem, the log margins to the toggle flag's limits
+    (:attr:`~sensor.mechanics.toggle.StrokeChange.log_margins`; -FAILED each where the
+    body's linear limit does not solve; empty otherwise)."""
 
     z: tuple
     design: Design | None
@@ -270,6 +297,7 @@ class Point:
     log_se: float = FAILED
     hinge_utilisation: tuple = ()
     phi2_margin: float = 0.0
+    toggle_margins: tuple = ()
     reason: str = ""
 
     @property
@@ -280,6 +308,12 @@ class Point:
     @property
     def ok(self) -> bool:
         return not self.reason
+
+    @property
+    def off_toggle(self) -> bool:
+        """Whether both toggle margins are >= 0 (false if they were not computed; phi2 is
+        held by the bounds)."""
+        return bool(self.toggle_margins) and min(self.toggle_margins) >= 0
 
 
 def solve_designs(designs: list[Design], travel_mm: float):
@@ -310,8 +344,10 @@ def evaluate(problem: DesignProblem, Z) -> list[Point]:
     """Evaluate bodies of variables Z (rows), solved together as one batch."""
     Z = np.atleast_2d(np.asarray(Z, dtype=float))
     designs = [problem.design(z) for z in Z]
+    solved = solve_designs(designs, problem.travel_mm)
+    toggle = _toggle_margins(solved) if problem.off_toggle else {}
     out = []
-    for z, d, (m, r) in zip(Z, designs, solve_designs(designs, problem.travel_mm)):
+    for n, (z, d, (m, r)) in enumerate(zip(Z, designs, solved)):
         margin = math.inf if problem.body == "basis" else problem.domain.phi2_edge(z[0]) - z[1]
         if m is None:
             out.append(Point(tuple(z), d, phi2_margin=margin, reason=r))
@@ -319,8 +355,41 @@ def evaluate(problem: DesignProblem, Z) -> list[Point]:
         allow = d.material.allowable_stress_MPa
         util = tuple(s.peak_MPa / allow for s in hinge_stresses(m, r).values())
         out.append(Point(tuple(z), d, math.log(r.input_force_N / problem.range_N), math.log(r.strain_energy_mJ),
-                         util, margin))
+                         util, margin, toggle.get(n, ())))
     return out
+
+
+def _toggle_margins(solved) -> dict[int, tuple]:
+    """Per body of ``solved`` (:func:`solve_designs`) that solved, by index, its log margins
+    to the toggle flag's limits, their linear limits solved as one batch."""
+    from sensor.mechanics.toggle import stroke_changes
+
+    idx = [n for n, (m, _) in enumerate(solved) if m is not None]
+    changes = stroke_changes([solved[n][0] for n in idx], [solved[n][1] for n in idx], [None] * len(idx))
+    return {n: (c.log_margins if c is not None else (-FAILED, -FAILED)) for n, (c, _) in zip(idx, changes)}
+
+
+def toggle_rows(problem: DesignProblem, pt: Point) -> np.ndarray:
+    """The off-toggle constraint rows of a point (>= 0 when met): its log margins to the
+    toggle flag's limits less :data:`TOGGLE_ROUNDING` (capped at 1; -FAILED where they could
+    not be computed); none unless the problem is ``off_toggle``."""
+    if not problem.off_toggle:
+        return np.zeros(0)
+    return np.minimum(pt.toggle_margins or (-FAILED, -FAILED), 1.0) - TOGGLE_ROUNDING
+
+
+def toggle_miss(design: Design, model, result) -> str:
+    """Why a solved DACM is not off the toggle as ``off_toggle`` asks: phi2 below
+    :data:`OFF_TOGGLE_PHI2_DEG` or marked by its stroke ("" if it is off it)."""
+    from sensor.mechanics.toggle import stroke_change
+
+    if design.phi2_deg is not None and design.phi2_deg < OFF_TOGGLE_PHI2_DEG - 1e-9:
+        return f"phi2 {design.phi2_deg:g} deg is below the {OFF_TOGGLE_PHI2_DEG:g} deg kept off the toggle"
+    change = stroke_change(model, result, design.phi2_deg)
+    if min(change.log_margins) >= 0:
+        return ""
+    return (f"next to the toggle (over the stroke k_out grows {change.k_out_ratio:.3f} x, A changes "
+            f"{change.amplification_ratio:.3f} x)")
 
 
 class _Local:
@@ -348,7 +417,7 @@ class _Local:
             min(self.p.log_se_limit + math.log1p(-STRESS_SLACK) - pt.log_se, 1.0)]
         return np.concatenate([[obj, pt.log_range_error,
                                 pt.phi2_margin / 10.0 if math.isfinite(pt.phi2_margin) else 1.0],
-                               law, math.log1p(-STRESS_SLACK) - np.log(np.maximum(util, 1e-9))])
+                               law, toggle_rows(self.p, pt), math.log1p(-STRESS_SLACK) - np.log(np.maximum(util, 1e-9))])
 
     def at(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
@@ -384,9 +453,12 @@ class _Local:
 def feasible(problem: DesignProblem, pt: Point, slack: float = 0.0, in_range: bool = True) -> bool:
     """Whether a point keeps the range (within RANGE_TOLERANCE; unless not ``in_range``), the
     stress (with ``slack``), the hysteresis law's domain (H below
-    :data:`~sensor.mechanics.hysteresis.H_LIMIT`), the hinge bounds and every rule of
-    :func:`geometry.checks.check_design`."""
+    :data:`~sensor.mechanics.hysteresis.H_LIMIT`), the hinge bounds, every rule of
+    :func:`geometry.checks.check_design` and, for an ``off_toggle`` problem, stays off the
+    toggle."""
     if not pt.ok or pt.utilisation > 1 - slack or (in_range and abs(pt.log_range_error) > math.log1p(RANGE_TOLERANCE)):
+        return False
+    if problem.off_toggle and not pt.off_toggle:
         return False
     if not problem.within_law(pt.log_se):
         return False
@@ -499,7 +571,7 @@ def written(problem: DesignProblem, design: Design, name: str) -> Design:
     import tomli_w
 
     p1 = _round_inward(design.phi1_deg, problem.lower[0], problem.upper[0], ANGLE_QUANTUM)
-    p2 = None if design.is_basis else _round_inward(design.phi2_deg, PHI2_BOUNDS[0],
+    p2 = None if design.is_basis else _round_inward(design.phi2_deg, problem.lower[1],
                                                     problem.domain.phi2_edge(p1), ANGLE_QUANTUM)
     n = len(design.used_hinges)
     t = tuple(_round_inward(v, problem.hinge_min_mm, problem.hinge_max_mm, THICKNESS_QUANTUM)
@@ -562,8 +634,9 @@ def project(problem: DesignProblem, z, atol: float = 1e-3) -> np.ndarray | None:
 def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
     """The final check of a written design: it solves, its range is the target within
     RANGE_TOLERANCE, its stress utilisation is at most 1, its predicted hysteresis is inside
-    the law's domain (below H_LIMIT), its hinges are inside the bounds and it keeps every
-    feasibility rule. (ok, why not)."""
+    the law's domain (below H_LIMIT), its hinges are inside the bounds, it keeps every
+    feasibility rule and, for an ``off_toggle`` problem, it is not next to the toggle.
+    (ok, why not)."""
     m, r = solve_designs([design], problem.travel_mm)[0]
     if m is None:
         return False, r
@@ -579,6 +652,8 @@ def accept(problem: DesignProblem, design: Design) -> tuple[bool, str]:
     t = np.array(design.used_thickness_mm)
     if t.min() < problem.hinge_min_mm - 1e-12 or t.max() > problem.hinge_max_mm + 1e-12:
         return False, f"hinges {t.min():.4f}-{t.max():.4f} mm outside {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g}"
+    if problem.off_toggle and (why := toggle_miss(design, m, r)):
+        return False, why
     fail = check_design(design).first_failure
     if fail is not None:
         return False, f"{fail.rule}: {fail.message}"
@@ -644,7 +719,8 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
                    else f"the nearest found are at {gap[0]:.4g} and {gap[1]:.4g} N (the limits leave a gap)")
             raise DesignError(f"range_N = {problem.range_N:g}: no {problem.body} body found within the feasibility "
                               f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable "
-                              f"stress and H < {H_LIMIT:g}; feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, "
+                              f"stress{', H < %g and off the toggle' % H_LIMIT if problem.off_toggle else ' and H < %g' % H_LIMIT}; "
+                              f"feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, "
                               f"but {why}")
     h, util, design = best
     return DesignResult(design, problem, h, util, reach, evaluations + counter[0], time.monotonic() - t0)
@@ -703,5 +779,5 @@ def describe(design: Design, problem: DesignProblem) -> dict:
             "resolution_N": sheet.resolution_N, "amplification": q.amplification,
             "k_out_N_per_mm": q.k_out_N_per_mm, "strain_energy_mJ": q.strain_energy_mJ,
             "stress_utilisation": stress_check(design, m, r).utilisation,
-            "quality_mm_per_N": q.quality_mm_per_N, **stroke_change(m, r).to_dict(),
+            "quality_mm_per_N": q.quality_mm_per_N, **stroke_change(m, r, design.phi2_deg).to_dict(),
             "datasheet": asdict(sheet)}

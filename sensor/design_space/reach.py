@@ -156,5 +156,6 @@ def unreachable_message(problem: DesignProblem, reach: tuple[float, float]) -> s
     where = ("no body of the family is feasible at all" if not np.isfinite(lo) else
              f"the reachable interval is {lo:.4g} to {hi:.4g} N")
     return (f"range_N = {problem.range_N:g}: no {problem.body} body within the feasibility rules, "
-            f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable stress and "
-            f"H < {H_LIMIT:g} reaches it at {problem.travel_mm:g} mm travel; {where}")
+            f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable stress"
+            f"{', H < %g and off the toggle' % H_LIMIT if problem.off_toggle else ' and H < %g' % H_LIMIT} "
+            f"reaches it at {problem.travel_mm:g} mm travel; {where}")

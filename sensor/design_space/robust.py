@@ -5,6 +5,7 @@ median hysteresis of the parts cut from a drawing, subject to chance constraints
     range 5th percentile >= (1 - BAND) N and 95th percentile <= (1 + BAND) N
     yield >= min_yield                                  (every hinge >= min_feature_mm)
     median H < H_LIMIT                                  (the hysteresis law's domain)
+    the drawing off the toggle                          (``off_toggle`` problems only)
 
 over the draws of :func:`sensor.design_space.tolerance.draws_z` (common random numbers: every
 candidate is cut with the same deviates, so the percentiles are smooth in the drawing). The
@@ -26,7 +27,16 @@ from scipy.stats import norm
 from threadpoolctl import threadpool_limits
 
 from geometry.params import Design
-from sensor.design_space.optimise import OBJECTIVE_SCALE, STRESS_SLACK, DesignProblem, solve_designs, written
+from sensor.design_space.optimise import (
+    OBJECTIVE_SCALE,
+    STRESS_SLACK,
+    DesignProblem,
+    evaluate,
+    solve_designs,
+    toggle_miss,
+    toggle_rows,
+    written,
+)
 from sensor.design_space.scatter import as_cut
 from sensor.design_space.tolerance import DRAWS, Tolerance, draws_z, part_statistics, tolerance
 from sensor.errors import DesignError
@@ -55,7 +65,8 @@ class RobustResult:
 
 def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yield: float,
             band: float = SEARCH_BAND) -> np.ndarray:
-    """[log median SE-based H, then the constraints (>= 0 when met)] of variables z."""
+    """[log median SE-based H, then the constraints (>= 0 when met)] of variables z; with
+    ``off_toggle`` the drawing's own off-toggle rows (:func:`toggle_rows`) among them."""
     d = problem.design(z)
     pr = problem.process
     cut = as_cut(d, z_draws, pr.sd_mm, pr.offset_mm, problem.travel_mm)
@@ -64,8 +75,9 @@ def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yiel
     t = np.array(d.used_thickness_mm)
     log_yield = float(np.sum(norm.logcdf((t + pr.offset_mm - d.min_feature_mm) / pr.sd_mm)))
     margin = 1.0 if problem.body == "basis" else (problem.domain.phi2_edge(z[0]) - z[1]) / 10.0
+    toggle = toggle_rows(problem, evaluate(problem, z[None])[0])
     if ok.sum() < 0.5 * len(ok):
-        return np.array([10.0, -10.0, -10.0, -10.0, log_yield - math.log(min_yield), margin, -10.0])
+        return np.array([10.0, -10.0, -10.0, -10.0, log_yield - math.log(min_yield), margin, *toggle, -10.0])
     r = s["range_N"][ok]
     util = np.where(np.isfinite(s["utilisation"]), s["utilisation"], 10.0)
     log_h = math.log(np.median(s["hysteresis"][ok]))
@@ -73,7 +85,7 @@ def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yiel
                      -math.log(max(np.percentile(util, 100 * (1 - SEARCH_STRESS_PROBABILITY)), 1e-9)),
                      math.log(np.percentile(r, 5) / ((1 - band) * problem.range_N)),
                      math.log((1 + band) * problem.range_N / np.percentile(r, 95)),
-                     log_yield - math.log(min_yield), margin,
+                     log_yield - math.log(min_yield), margin, *toggle,
                      math.log(H_LIMIT) + math.log1p(-STRESS_SLACK) - log_h])   # the optimiser's margin
 
 
@@ -177,6 +189,8 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
                    f"{problem.range_N:g} N")
     if tol.yield_fraction < min_yield:
         why.append(f"yield {100 * tol.yield_fraction:.1f} % < {100 * min_yield:g} %")
+    if problem.off_toggle and (miss := toggle_miss(d, *solve_designs([d], problem.travel_mm)[0])):
+        why.append(f"the drawing is {miss}")
     if not tol.hysteresis_fraction_p50 < H_LIMIT:
         why.append(f"median H {tol.hysteresis_fraction_p50:.3f} past the hysteresis law's domain (< {H_LIMIT:g})")
     return RobustResult(d, tol, not why, "; ".join(why), time.monotonic() - t0)

@@ -71,3 +71,16 @@ def test_dxf_is_the_kerf_compensated_path(quick, tmp_path, capsys):
     pts = np.array([v[:2] for e in doc.modelspace().query("LWPOLYLINE") for v in e.get_points()])
     span = pts.max(axis=0) - pts.min(axis=0)
     assert span == pytest.approx([25.0 + 0.8, 30.0 + 0.8], abs=0.01)
+
+
+def test_off_toggle_reaches_both_searches_and_the_json(quick, tmp_path, capsys, monkeypatch):
+    """--off-toggle is passed to the DACM's search, not the basis body's (it has no toggle;
+    the constraint itself: tests/design_space/test_optimise.py), and stated in the JSON."""
+    searched = []
+    shortened = opt.optimise
+    monkeypatch.setattr(opt, "optimise", lambda p, *a, **k: searched.append(p.off_toggle) or shortened(p, *a, **k))
+    assert main(["design", "--range", "3", "--off-toggle", "--out", str(tmp_path), "--workers", "1",
+                 "--draws", "20", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert searched == [True, False]
+    assert out["off_toggle"] is True and out["near_toggle"] is False

@@ -94,6 +94,7 @@ def test_materials_are_read_from_the_base():
     (dict(range_N=3.0, hinge_min_mm=0.1), "min_feature_mm"),
     (dict(range_N=3.0, travel_mm=1.5), "fiber_clearance_mm"),
     (dict(range_N=3.0, pairs=((1, 8),)), "pairs"),
+    (dict(range_N=3.0, body="basis", off_toggle=True), "off_toggle = True: the basis body has no toggle"),
 ])
 def test_bad_problems_name_the_field(kw, fragment):
     with pytest.raises(DesignError, match=fragment.replace("(", r"\(")):
@@ -147,3 +148,33 @@ def test_the_answer_does_not_depend_on_where_the_searches_run():
     with task_pool(2) as pool:
         there = optimise(p, pool, n_starts=4)
     assert here.design == there.design and here.hysteresis == there.hysteresis
+
+
+@pytest.mark.parametrize("range_N", [10.0, 15.0])
+def test_off_toggle_answers_keep_off_the_toggle_and_are_the_continuum_tables(range_N):
+    """``off_toggle``: the written answer is accepted, phi2 at least OFF_TOGGLE_PHI2_DEG and
+    not next to the toggle, where the unconstrained best (the reference search's) is; its H
+    no lower than that best's (less the 1 % the seeds agree to: the constraint can only cost
+    H); and it is the body of the continuum table's off-toggle family (which checks it
+    against the continuum: tests/mechanics/test_continuum_table.py)."""
+    import json
+
+    from geometry.params import design_from_dict
+    from sensor.design_space.optimise import OFF_TOGGLE_PHI2_DEG, solve_designs
+    from sensor.mechanics.toggle import stroke_change
+    from tests.design_space.test_optimise_reference import REFERENCE_PATH
+    from tests.mechanics.make_continuum_table import OFF_TOGGLE
+
+    def flagged(design):
+        return stroke_change(*solve_designs([design], 1.0)[0], design.phi2_deg).near_toggle
+
+    p = DesignProblem(range_N, off_toggle=True)
+    res = optimise(p)
+    assert accept(p, res.design)[0]
+    assert res.design.phi2_deg >= OFF_TOGGLE_PHI2_DEG and not flagged(res.design)
+    ref = json.loads(REFERENCE_PATH.read_text())[f"proposed-{range_N:g}"]
+    assert flagged(design_from_dict(ref["design"]))
+    assert res.hysteresis >= 0.99 * ref["hysteresis"], (res.hysteresis, ref["hysteresis"])
+    phi1, phi2, hinges = OFF_TOGGLE[f"off-toggle-{range_N:g}N"]
+    assert (res.design.phi1_deg, res.design.phi2_deg, res.design.used_thickness_mm) == (phi1, phi2, hinges)
+

@@ -11,11 +11,12 @@ them (about 30 min).
 
 ``entries``: the part as cut (root fillets r = kerf / 2; kerf 0, 0.4, 0.8 and 1.2 mm) of the
 thesis specimens, ``dacm design`` outputs, thick hinges (t / L up to 0.69), the basis family
-(hinges 1-8 from 0.3 to 1.25 mm), ``dacm design``-like bodies of both materials and the
-seven answers of the README's design table, linear from 3, 4.24 and 6 elements across each
-hinge (6, 8.5 and 12 where those do not converge within 1 %; Richardson) and nonlinear at
-1 mm output on the 3-across mesh; held out of any fit by a fixed rule: every third entry of
-a family, and the design table's answers all.
+(hinges 1-8 from 0.3 to 1.25 mm), ``dacm design``-like bodies of both materials, the
+seven answers of the README's design table, sixteen bodies next to the toggle and ``dacm
+design --off-toggle``'s two answers, linear from 3, 4.24 and 6 elements across each hinge
+(6, 8.5 and 12 where those do not converge within 1 %; Richardson) and nonlinear at 1 mm
+output on the 3-across mesh; held out of any fit by a fixed rule: every third entry of a
+family, and the last three families (added after the fits) all.
 
 Targets of the issue: k_out within 3 %, A within 1.5 % of the converged continuum, hinge
 stress within 15 %. The root rule's constants are fitted to the entries that are not held
@@ -29,8 +30,9 @@ model's with the input's rotation free and with it held (the punch holds it part
 Known disagreements, kept as strict expected failures with their numbers (CUT_MISSES,
 CUT_MISSES_1MM, LINEAR_MISSES, NONLINEAR_MISSES): one drawn cell in the linear limit and
 two at 1 mm, next to the toggle (phi2 = 4 and 6 deg), where a 0.02 mm shift of a middle
-link's effective pivot moves A by 2 %; of the 57 cut-part entries, 1 in the linear limit
-and 5 at 1 mm (see CUT_MISSES).
+link's effective pivot moves A by 2 %; of the 73 cut-part entries, 4 in the linear limit
+and 15 at 1 mm (see CUT_MISSES), 13 of the 19 next to the toggle (phi2 below 11 deg, or
+marked by the stroke: sensor/mechanics/toggle.py).
 Every other case meets both targets, held-out entries included.
 """
 
@@ -46,7 +48,7 @@ from sensor.errors import ConvergenceError, InstabilityError
 from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
 from sensor.mechanics.solver import solve
 from sensor.mechanics.stress import hinge_stresses
-from tests.mechanics.make_continuum_table import CONVERGED_PCT, DESIGN_TABLE, NONLINEAR, cases, entries
+from tests.mechanics.make_continuum_table import CONVERGED_PCT, DESIGN_TABLE, HELD_OUT_FAMILIES, NONLINEAR, cases, entries
 
 _DATA = json.loads((Path(__file__).with_name("data") / "continuum_table.json").read_text())
 TABLE = _DATA["cases"]
@@ -105,12 +107,25 @@ NONLINEAR_MISSES = {"03-03-28-6": "k +3.63 %, A +1.74 %", "05-03-22-6": "k +6.07
 #: the tangent stiffness: the knees and platform sway sideways and the top plate tilts about the punch);
 #: their sway starts between the beam model's with the input's rotation free and held
 #: (like-10: 0.82 < 0.92-0.93 < 1.10 mm; like-11: 0.33 < 0.45-0.46 < 0.87 mm).
-CUT_MISSES = {"thick-22-17.2-1.4-0.6": "A -1.83 %"}
+CUT_MISSES = {"thick-22-17.2-1.4-0.6": "A -1.83 %",
+              # next to the toggle (phi2 9.3, 12.55 and 7.24 deg)
+              "toggle-band-2": "A -2.01 %", "toggle-band-9": "A +1.62 %", "toggle-band-k2.0-15N": "A +1.60 %"}
 CUT_MISSES_1MM = {"answer-proposed-10N": "A +2.47 % (FE peak 37 MPa at 1 mm)",
                   "answer-proposed-15N": "k +3.72 %, A +2.60 % (FE peak 39 MPa at 1 mm)",
                   "basis-unequal-0": "k +3.03 % (FE peak 47 MPa at 1 mm)",
                   "like-4-delrin": "k +7.97 %, A -5.98 % (FE peak 71 MPa at 1 mm)",
-                  "thick-20-15-0.9-0.6-L1.6": "A +1.90 % (FE peak 109 MPa at 1 mm)"}
+                  "thick-20-15-0.9-0.6-L1.6": "A +1.90 % (FE peak 109 MPa at 1 mm)",
+                  # next to the toggle: every body of phi2 below 10.7 deg (the toggle-band family)
+                  "toggle-band-0": "k +3.55 % (FE peak 55 MPa at 1 mm)",
+                  "toggle-band-1": "k +3.51 % (FE peak 56 MPa at 1 mm)",
+                  "toggle-band-3": "A +2.42 % (FE peak 65 MPa at 1 mm)",
+                  "toggle-band-4": "A +1.56 % (FE peak 55 MPa at 1 mm)",
+                  "toggle-band-5": "k +3.35 % (FE peak 49 MPa at 1 mm)",
+                  "toggle-band-9": "A +2.68 % (FE peak 76 MPa at 1 mm)",
+                  "toggle-band-k2.2-10N": "A +1.91 % (FE peak 37 MPa at 1 mm)",
+                  "toggle-band-k2.2-15N": "k +3.45 %, A +3.09 % (FE peak 39 MPa at 1 mm)",
+                  "toggle-band-k2.0-10N": "A +2.30 % (FE peak 36 MPa at 1 mm)",
+                  "toggle-band-k2.0-15N": "k +3.54 %, A +3.18 % (FE peak 38 MPa at 1 mm)"}
 
 
 def _cases(names, misses):
@@ -203,7 +218,8 @@ def test_neck_stress_of_the_cut_part_matches_continuum(name):
 
 def test_entries_are_the_scripts_bodies_with_the_held_out_rule_and_converged():
     """Every stored entry is a body of the script (the same design, kerf included), held out
-    by the script's fixed rule (every third of its family), and mesh-converged as stated
+    by the script's fixed rules (every third of its family; every entry of a family of
+    HELD_OUT_FAMILIES), and mesh-converged as stated
     (Richardson error of the finest mesh under 1 % on k_out and A)."""
     bodies = entries()
     assert ENTRIES, "no cut-part entries yet: run tests/mechanics/make_continuum_table.py"
@@ -215,8 +231,9 @@ def test_entries_are_the_scripts_bodies_with_the_held_out_rule_and_converged():
         assert isinstance(row["nonlinear_1mm"]["stable"], bool), name
         for q in ("k_out_N_per_mm", "amplification"):
             assert row["linear"][q]["error_pct"] < CONVERGED_PCT, (name, q)
-    held = sum(h for _, h, _ in bodies.values())
-    assert 0.25 < held / len(bodies) < 0.4
+    ruled = [held for family, held, _ in bodies.values() if family not in HELD_OUT_FAMILIES]
+    assert 0.25 < sum(ruled) / len(ruled) < 0.4
+    assert all(held for family, held, _ in bodies.values() if family in HELD_OUT_FAMILIES)
 
 
 def test_the_design_table_family_is_the_readmes_answers():

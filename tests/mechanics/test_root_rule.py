@@ -24,6 +24,7 @@ from geometry.params import design_from_dict
 from sensor.mechanics import stress
 from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION
 from sensor.mechanics.solver import solve
+from tests.mechanics.make_continuum_table import HELD_OUT_FAMILIES
 from tests.mechanics.test_continuum_table import ENTRIES
 
 CONSTANTS = ("ROOT_DEPTH_PER_THICKNESS", "ROOT_DEPTH_PER_LEAN", "FILLET_SPREAD_SLOPE", "ROOT_BODY_DEPTHS")
@@ -48,8 +49,9 @@ def test_fit_uses_a_body_of_every_kind_and_holds_a_third_out():
     kinds = {ENTRIES[n]["family"] for n in FITTED}
     kerfs = {ENTRIES[n]["kerf_mm"] for n in FITTED}
     assert len(kinds) >= 3 and {0.0, 0.8} <= kerfs
-    held = sum(row["held_out"] for row in ENTRIES.values())
-    assert 0.2 <= held / len(ENTRIES) <= 0.45  # every third of a family, the table partly computed
+    # every third of a family (the table partly computed), beside the families held out whole
+    ruled = [row["held_out"] for row in ENTRIES.values() if row["family"] not in HELD_OUT_FAMILIES]
+    assert 0.2 <= sum(ruled) / len(ruled) <= 0.45
 
 
 def test_root_rule_is_the_least_squares_fit(monkeypatch):
