@@ -31,8 +31,8 @@ Known disagreements, kept as strict expected failures with their numbers (CUT_MI
 CUT_MISSES_1MM, LINEAR_MISSES, NONLINEAR_MISSES): one drawn cell in the linear limit and
 two at 1 mm, next to the toggle (phi2 = 4 and 6 deg), where a 0.02 mm shift of a middle
 link's effective pivot moves A by 2 %; of the 73 cut-part entries, 4 in the linear limit
-and 15 at 1 mm (see CUT_MISSES), 13 of the 19 next to the toggle (phi2 below 11 deg, or
-marked by the stroke: sensor/mechanics/toggle.py).
+and 15 at 1 mm (see CUT_MISSES; 17 entries), 15 of the 19 next to the toggle (phi2 below
+11 deg, or marked by the stroke: sensor/mechanics/toggle.py).
 Every other case meets both targets, held-out entries included.
 """
 
