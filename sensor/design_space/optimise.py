@@ -92,8 +92,8 @@ STARTS, FINALISTS = 12, 6
 FAILED = 10.0
 #: With ``off_toggle``, the least phi2 (deg): a degree above the flag's
 #: :data:`~sensor.mechanics.toggle.PHI2_LIMIT_DEG`. The search ends on it, and the beam
-#: model's error at 1 mm grows as phi2 falls (held-out bodies of the continuum table: 11.1
-#: to 11.5 deg met both targets with up to +2.3 % on k_out and +1.5 % on A).
+#: model's error at 1 mm grows as phi2 falls (the continuum table's DACMs of phi2 11.06 to
+#: 11.53 deg met both targets with up to +2.30 % on k_out and +1.47 % on A).
 OFF_TOGGLE_PHI2_DEG = 12.0
 #: The search's rows keep the stroke's log margins to the flag's limits
 #: (:attr:`~sensor.mechanics.toggle.StrokeChange.log_margins`) at least this, so that the
@@ -169,6 +169,12 @@ class DesignProblem:
                                                                 "hinge_thickness_mm", "name", "body")}
         return design_from_dict({**base, "phi1_deg": 20.0, "phi2_deg": None if self.body == "basis" else 30.0,
                                  "hinge_set": "optimised", "hinge_thickness_mm": [0.5] * 12}, source="design base")
+
+    @property
+    def limits(self) -> str:
+        """The limits besides the rules and the hinges, as the refusals name them."""
+        return f"the allowable stress, H < {H_LIMIT:g} and off the toggle" if self.off_toggle else \
+            f"the allowable stress and H < {H_LIMIT:g}"
 
     @property
     def n_angles(self) -> int:
@@ -718,8 +724,7 @@ def optimise(problem: DesignProblem, pool=None, n_starts: int = STARTS, name: st
             why = (f"the bodies found at the range fail the written design's check ({rejected[0]})" if rejected
                    else f"the nearest found are at {gap[0]:.4g} and {gap[1]:.4g} N (the limits leave a gap)")
             raise DesignError(f"range_N = {problem.range_N:g}: no {problem.body} body found within the feasibility "
-                              f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable "
-                              f"stress{', H < %g and off the toggle' % H_LIMIT if problem.off_toggle else ' and H < %g' % H_LIMIT}; "
+                              f"rules, hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, {problem.limits}; "
                               f"feasible bodies reach {reach[0]:.4g} to {reach[1]:.4g} N, "
                               f"but {why}")
     h, util, design = best

@@ -31,7 +31,6 @@ from sensor.design_space.optimise import (
     evaluate,
     feasible,
 )
-from sensor.mechanics.hysteresis import H_LIMIT
 
 #: Angle step of the scans (deg), the best scanned bodies polished per end, the
 #: Latin-hypercube starts per end, and the passes that bring the stiffest scan's bodies to
@@ -156,6 +155,5 @@ def unreachable_message(problem: DesignProblem, reach: tuple[float, float]) -> s
     where = ("no body of the family is feasible at all" if not np.isfinite(lo) else
              f"the reachable interval is {lo:.4g} to {hi:.4g} N")
     return (f"range_N = {problem.range_N:g}: no {problem.body} body within the feasibility rules, "
-            f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, the allowable stress"
-            f"{', H < %g and off the toggle' % H_LIMIT if problem.off_toggle else ' and H < %g' % H_LIMIT} "
+            f"hinges {problem.hinge_min_mm:g}-{problem.hinge_max_mm:g} mm, {problem.limits} "
             f"reaches it at {problem.travel_mm:g} mm travel; {where}")
