@@ -117,7 +117,8 @@ class RangeAnswer:
     """The best admissible cell of one hinge set at one range, and the best basis body of
     that range. ``cell`` is None when no admissible cell lies within the tolerance;
     ``basis`` holds NaN when no basis body reaches the range within the allowable stress
-    (``basis_any_stress`` is the best regardless of stress)."""
+    (``basis_any_stress`` is the best regardless of stress); ``toggle`` the cell's
+    :meth:`~sensor.mechanics.toggle.StrokeChange.to_dict` (None without a cell)."""
 
     hinges: str
     range_N: float
@@ -125,6 +126,7 @@ class RangeAnswer:
     basis: dict
     basis_any_stress: dict
     edge: str
+    toggle: dict | None = None
 
 
 def answer_at(ds: xr.Dataset, hinges: str, range_N: float, tolerance: float = SAME_RANGE) -> RangeAnswer:
@@ -137,7 +139,25 @@ def answer_at(ds: xr.Dataset, hinges: str, range_N: float, tolerance: float = SA
     basis = {k: float(v) for k, v in basis_at_range(ds, range_N).items()}
     loose = {k: float(v) for k, v in basis_at_range(ds, range_N, stress=False).items()}
     edge = "" if cell is None else edge_note(ds, hinges, int(cell["i"]), int(cell["j"]))
-    return RangeAnswer(hinges, float(range_N), cell, basis, loose, edge)
+    toggle = None if cell is None else cell_toggle(ds, hinges, cell["phi1_deg"], cell["phi2_deg"])
+    return RangeAnswer(hinges, float(range_N), cell, basis, loose, edge, toggle)
+
+
+def cell_toggle(ds: xr.Dataset, hinges: str, phi1: float, phi2: float) -> dict:
+    """Whether a cell of the sweep is next to the toggle, and how its k_out and A change over
+    the stroke to the sweep's travel (:func:`sensor.mechanics.toggle.stroke_change`, its
+    JSON keys): the cell's design solved again, to the travel and to its linear limit."""
+    import json
+
+    from geometry.topology import build_beam_model
+    from sensor.design_space.spec import SweepSpec
+    from sensor.mechanics.solver import solve
+    from sensor.mechanics.toggle import stroke_change
+
+    design = SweepSpec(**_spec_args(ds)).design(hinges, phi1, phi2)
+    model = build_beam_model(design)
+    travel = json.loads(ds.attrs["spec"])["target_output_mm"]
+    return stroke_change(model, solve(model, target_output_mm=travel), design.phi2_deg).to_dict()
 
 
 def edge_note(ds: xr.Dataset, hinges: str, i: int, j: int) -> str:

@@ -93,4 +93,7 @@ def _answer_line(a: dict) -> str:
             f" (best beyond it: H = {loose['hysteresis']:.4f} at {loose['stress_utilisation']:.2f} x the "
             f"allowable stress; H ratio {a['hysteresis_ratio_any_stress']:.3f})"
             if loose["hysteresis"] is not None else "")
-    return text + (f" [edge: {a['edge']}]" if a["edge"] else "")
+    from sensor.mechanics.toggle import StrokeChange
+
+    toggle = StrokeChange(a["toggle"]["k_out_stroke_ratio"], a["toggle"]["amplification_stroke_ratio"], c["phi2_deg"])
+    return text + (f" [{toggle.warning()}]" if toggle.near_toggle else "") + (f" [edge: {a['edge']}]" if a["edge"] else "")

@@ -141,3 +141,23 @@ def test_best_cell_on_the_grid_edge_names_where_the_feasible_region_ends(sweep):
     assert check_design(SPEC.design("03-03", end - 0.01, phi2)).feasible
     fail = check_design(SPEC.design("03-03", end + 0.02, phi2)).first_failure
     assert fail is not None and fail.rule == rule
+
+
+def test_the_answer_says_whether_its_cell_is_next_to_the_toggle(sweep):
+    """An answer's ``toggle`` is its cell's own stroke change (the cell's design made here
+    from its hinge set and angles, solved to the sweep's 1 mm and to its linear limit), so a
+    cell of phi2 below 11 deg is marked next to the toggle, in the JSON and in the sweep's
+    printed line; a cell of phi2 12 deg and above with a mild stroke is not."""
+    from dataclasses import asdict
+
+    from sensor.design_space.summary import _answer_line, _plain, _with_ratios
+    from sensor.mechanics.toggle import stroke_change
+
+    near = run_sweep(SweepSpec(phi1=Grid(26, 32, 2), phi2=Grid(8, 10, 2)), "near", workers=1)[0]
+    for ds, hinges, expected in ((sweep, "05-03", False), (near, "03-03", True)):
+        a = answer_at(ds, hinges, float(pareto_front(ds, hinges)["range_N"].iloc[0]))
+        design = make_design(a.cell["phi1_deg"], a.cell["phi2_deg"], hinges)
+        model = build_beam_model(design)
+        own = stroke_change(model, solve(model, target_output_mm=1.0), design.phi2_deg).to_dict()
+        assert a.toggle == pytest.approx(own, rel=1e-9) and a.toggle["near_toggle"] is expected
+        assert ("[next to the toggle" in _answer_line(_with_ratios(_plain(asdict(a))))) is expected
