@@ -166,6 +166,8 @@ def run(args: argparse.Namespace) -> int:
         rows.append(("basis", theirs))
     for label, d in rows:
         print("\n".join(body_lines(label, d)))
+    if ours["near_toggle"] and not args.off_toggle:
+        print("               (--off-toggle finds the best DACM off the toggle, at a higher H)")
     if theirs:
         print(f"  DACM / basis: H {ours['hysteresis'] / theirs['hysteresis']:.3f} (1/A = {1 / ours['amplification']:.3f}), "
               f"resolution {ours['resolution_N'] / theirs['resolution_N']:.3f}")
