@@ -160,7 +160,7 @@ def test_off_toggle_answers_keep_off_the_toggle_and_are_the_continuum_tables(ran
     import json
 
     from geometry.params import design_from_dict
-    from sensor.design_space.optimise import OFF_TOGGLE_PHI2_DEG, solve_designs
+    from sensor.design_space.optimise import ANGLE_QUANTUM, OFF_TOGGLE_PHI2_DEG, THICKNESS_QUANTUM, solve_designs
     from sensor.mechanics.toggle import stroke_change
     from tests.design_space.test_optimise_reference import REFERENCE_PATH
     from tests.mechanics.make_continuum_table import OFF_TOGGLE
@@ -175,6 +175,9 @@ def test_off_toggle_answers_keep_off_the_toggle_and_are_the_continuum_tables(ran
     ref = json.loads(REFERENCE_PATH.read_text())[f"proposed-{range_N:g}"]
     assert flagged(design_from_dict(ref["design"]))
     assert res.hysteresis >= 0.99 * ref["hysteresis"], (res.hysteresis, ref["hysteresis"])
+    # within one quantum of the written values: another machine can land one quantum apart
+    # (seen on the default 15 N answer's hinges between two sessions' machines)
     phi1, phi2, hinges = OFF_TOGGLE[f"off-toggle-{range_N:g}N"]
-    assert (res.design.phi1_deg, res.design.phi2_deg, res.design.used_thickness_mm) == (phi1, phi2, hinges)
+    assert [res.design.phi1_deg, res.design.phi2_deg] == pytest.approx([phi1, phi2], abs=1.01 * ANGLE_QUANTUM)
+    assert res.design.used_thickness_mm == pytest.approx(hinges, abs=1.01 * THICKNESS_QUANTUM)
 
