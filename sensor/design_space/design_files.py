@@ -50,7 +50,7 @@ def body_lines(label: str, d: dict) -> list[str]:
     f = d["design"]
     used = design_from_dict(f).used_thickness_mm
     angles = f"phi1 = {f['phi1_deg']:.2f}" + (f", phi2 = {f['phi2_deg']:.2f}" if "phi2_deg" in f else "")
-    warning = StrokeChange(d["k_out_stroke_ratio"], d["amplification_stroke_ratio"], f.get("phi2_deg")).warning()
+    warning = StrokeChange.from_dict(d, f.get("phi2_deg")).warning()
     return [f"  {label:<12} {angles} deg, hinges {' '.join(f'{t:.4f}' for t in used)} mm",
             f"               range {d['range_N']:.4f} N, H = {d['hysteresis']:.4f}, resolution "
             f"{1e3 * d['resolution_N']:.3f} mN, A = {d['amplification']:.3f}, k_out {d['k_out_N_per_mm']:.3f} N/mm, "

@@ -75,7 +75,7 @@ def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yiel
     t = np.array(d.used_thickness_mm)
     log_yield = float(np.sum(norm.logcdf((t + pr.offset_mm - d.min_feature_mm) / pr.sd_mm)))
     margin = 1.0 if problem.body == "basis" else (problem.domain.phi2_edge(z[0]) - z[1]) / 10.0
-    toggle = toggle_rows(problem, evaluate(problem, z[None])[0])
+    toggle = toggle_rows(problem, evaluate(problem, z[None])[0]) if problem.off_toggle else ()
     if ok.sum() < 0.5 * len(ok):
         return np.array([10.0, -10.0, -10.0, -10.0, log_yield - math.log(min_yield), margin, *toggle, -10.0])
     r = s["range_N"][ok]

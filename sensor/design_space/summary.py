@@ -95,5 +95,5 @@ def _answer_line(a: dict) -> str:
             if loose["hysteresis"] is not None else "")
     from sensor.mechanics.toggle import StrokeChange
 
-    toggle = StrokeChange(a["toggle"]["k_out_stroke_ratio"], a["toggle"]["amplification_stroke_ratio"], c["phi2_deg"])
+    toggle = StrokeChange.from_dict(a["toggle"], c["phi2_deg"])
     return text + (f" [{toggle.warning()}]" if toggle.near_toggle else "") + (f" [edge: {a['edge']}]" if a["edge"] else "")

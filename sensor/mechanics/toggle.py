@@ -75,6 +75,11 @@ class StrokeChange:
         """The JSON keys of ``dacm solve`` and ``dacm design`` (:data:`JSON_KEYS`)."""
         return dict(zip(JSON_KEYS, (self.k_out_ratio, self.amplification_ratio, self.near_toggle)))
 
+    @classmethod
+    def from_dict(cls, keys: dict, phi2_deg: float | None) -> "StrokeChange":
+        """The change :meth:`to_dict` gave ``keys``, of a body of phi2 ``phi2_deg``."""
+        return cls(keys["k_out_stroke_ratio"], keys["amplification_stroke_ratio"], phi2_deg)
+
     def warning(self) -> str:
         """One line for a body next to the toggle ("" otherwise)."""
         if not self.near_toggle:
