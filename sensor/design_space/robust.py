@@ -12,7 +12,9 @@ candidate is cut with the same deviates, so the percentiles are smooth in the dr
 yield is exact: prod_i Phi((t_i + offset - min_feature) / SD). Method: SLSQP with batched
 forward differences from the nominal answer (:func:`sensor.design_space.optimise.optimise`),
 in the same unit box; the answer is rounded inward and its tolerance report recomputed on all
-the draws, where a range band off-centre is centred by scaling every hinge together.
+the draws, where a range band off-centre is centred by scaling every hinge together. Where
+it still misses a chance constraint there (the search saw a few of the draws), the search
+runs again from it on all of them (SEARCH_PASSES).
 """
 
 from __future__ import annotations
@@ -49,6 +51,13 @@ STRESS_PROBABILITY, BAND, MIN_YIELD = 0.05, 0.10, 0.9
 SEARCH_DRAWS, SEARCH_BAND, SEARCH_STRESS_PROBABILITY, ITERATIONS = 64, 0.085, 0.03, 30
 #: Passes of the final centring of the range band (:func:`_centred`).
 CENTRING_PASSES = 3
+#: Where the written answer misses a chance constraint on the report's draws, the search
+#: runs once more from it on all of them (SEARCH_PASSES = 2), holding P(stress) to
+#: FULL_DRAWS_STRESS_PROBABILITY: on the report's own draws the margin need only cover the
+#: inward rounding and the centring. 3 % on 64 parts is not 5 % on 200: the 10 and 15 N
+#: robust answers ended one part over, at P(stress) 5.1 %, after the first search alone.
+#: The written design that misses least is kept, then the one of lower median H.
+SEARCH_PASSES, FULL_DRAWS_STRESS_PROBABILITY = 2, 0.045
 #: Forward-difference step in the unit box: percentiles over draws are piecewise smooth, so a
 #: step larger than the nominal search's keeps the kinks of one draw from ruling the gradient.
 ROBUST_FD_STEP = 1e-4
@@ -64,9 +73,11 @@ class RobustResult:
 
 
 def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yield: float,
-            band: float = SEARCH_BAND) -> np.ndarray:
-    """[log median SE-based H, then the constraints (>= 0 when met)] of variables z; with
-    ``off_toggle`` the drawing's own off-toggle rows (:func:`toggle_rows`) among them."""
+            band: float = SEARCH_BAND, stress_probability: float = SEARCH_STRESS_PROBABILITY) -> np.ndarray:
+    """[log median SE-based H, then the constraints (>= 0 when met)] of variables z: the
+    parts' utilisation percentile at 1 - ``stress_probability`` and their range percentiles
+    5 and 95 within ``band`` of the range among them; with ``off_toggle`` the drawing's own
+    off-toggle rows (:func:`toggle_rows`) too."""
     d = problem.design(z)
     pr = problem.process
     cut = as_cut(d, z_draws, pr.sd_mm, pr.offset_mm, problem.travel_mm)
@@ -82,7 +93,7 @@ def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yiel
     util = np.where(np.isfinite(s["utilisation"]), s["utilisation"], 10.0)
     log_h = math.log(np.median(s["hysteresis"][ok]))
     return np.array([log_h,
-                     -math.log(max(np.percentile(util, 100 * (1 - SEARCH_STRESS_PROBABILITY)), 1e-9)),
+                     -math.log(max(np.percentile(util, 100 * (1 - stress_probability)), 1e-9)),
                      math.log(np.percentile(r, 5) / ((1 - band) * problem.range_N)),
                      math.log((1 + band) * problem.range_N / np.percentile(r, 95)),
                      log_yield - math.log(min_yield), margin, *toggle,
@@ -136,22 +147,19 @@ def _check_domain(problem: DesignProblem, design: Design) -> None:
                           "(run without --robust)")
 
 
-def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: int = 0,
-           min_yield: float = MIN_YIELD, name: str = "robust") -> RobustResult:
-    """The robust design of ``problem`` from the nominal answer ``nominal``; ``met`` says
-    whether the written design keeps every chance constraint on its tolerance report (and
-    ``why`` not). Raises DesignError if the drawing it ends at is itself past the
-    hysteresis law's domain (no datasheet can be written for it)."""
-    t0 = time.monotonic()
-    zd = draws_z(draws, seed)[:SEARCH_DRAWS]
+def _search(problem: DesignProblem, z_draws: np.ndarray, u0: np.ndarray, min_yield: float,
+            band: float, stress_probability: float) -> np.ndarray:
+    """SLSQP from u0 (unit box) on the parts cut with ``z_draws``: the best point it saw that
+    keeps the constraints (else the least violating, inside the hysteresis law's domain
+    where any point is)."""
     values: dict[bytes, np.ndarray] = {}
     grads: dict[bytes, np.ndarray] = {}
 
     def at(u):
-        """The objective and constraints at u (one batch of SEARCH_DRAWS parts), cached."""
+        """The objective and constraints at u (one batch of parts), cached."""
         key = np.asarray(u).tobytes()
         if key not in values:
-            values[key] = _values(problem, zd, problem.from_unit(u), min_yield)
+            values[key] = _values(problem, z_draws, problem.from_unit(u), min_yield, band, stress_probability)
         return values[key]
 
     def grad(u):
@@ -159,28 +167,26 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
         key = np.asarray(u).tobytes()
         if key not in grads:
             step = np.where(u + ROBUST_FD_STEP <= 1.0, ROBUST_FD_STEP, -ROBUST_FD_STEP)
-            vals = np.array([_values(problem, zd, problem.from_unit(x), min_yield) for x in u + np.diag(step)])
+            vals = np.array([_values(problem, z_draws, problem.from_unit(x), min_yield, band, stress_probability)
+                             for x in u + np.diag(step)])
             grads[key] = (vals - at(u)).T / step
         return grads[key]
 
-    u0 = np.clip(problem.to_unit(problem.variables(nominal)), 0, 1)
     with threadpool_limits(1):     # as the nominal search: the answer must not depend on the cores
         minimize(lambda u: OBJECTIVE_SCALE * at(u)[0], u0, jac=lambda u: OBJECTIVE_SCALE * grad(u)[0],
                  method="SLSQP", bounds=[(0.0, 1.0)] * len(u0),
                  constraints=[{"type": "ineq", "fun": lambda u: at(u)[1:], "jac": lambda u: grad(u)[1:]}],
                  options={"maxiter": ITERATIONS, "ftol": 1e-8})
-    # the best point seen that keeps the constraints (else the least violating, inside the
-    # hysteresis law's domain where any point is)
     seen = [(np.frombuffer(k), v) for k, v in values.items()]
     good = [(v[0], u) for u, v in seen if v[1:].min() >= 0]
     if good:
-        u = min(good, key=lambda g: g[0])[1]
-    else:
-        u = max(seen, key=lambda s: (s[1][-1] >= 0, s[1][1:].min()))[0]
-    d = written(problem, problem.design(problem.from_unit(np.clip(u, 0, 1))), name)
-    tol = tolerance(d, problem.process, draws, seed, problem.travel_mm, problem.law)
-    d, tol = _centred(problem, d, tol, draws, seed, name)
-    _check_domain(problem, d)
+        return min(good, key=lambda g: g[0])[1]
+    return max(seen, key=lambda s: (s[1][-1] >= 0, s[1][1:].min()))[0]
+
+
+def _misses(problem: DesignProblem, d: Design, tol: Tolerance, min_yield: float) -> list[str]:
+    """The chance constraints (and the off-toggle and domain rules) the written design ``d``
+    misses on its tolerance report ``tol``, one phrase each (empty: met)."""
     why = []
     if tol.p_over_stress > STRESS_PROBABILITY:
         why.append(f"P(stress > allowable) {100 * tol.p_over_stress:.1f} % > {100 * STRESS_PROBABILITY:g} %")
@@ -193,7 +199,32 @@ def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: in
         why.append(f"the drawing is {miss}")
     if not tol.hysteresis_fraction_p50 < H_LIMIT:
         why.append(f"median H {tol.hysteresis_fraction_p50:.3f} past the hysteresis law's domain (< {H_LIMIT:g})")
+    return why
+
+
+def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: int = 0,
+           min_yield: float = MIN_YIELD, name: str = "robust") -> RobustResult:
+    """The robust design of ``problem`` from the nominal answer ``nominal``; ``met`` says
+    whether the written design keeps every chance constraint on its tolerance report (and
+    ``why`` not). Raises DesignError if the drawing it ends at is itself past the
+    hysteresis law's domain (no datasheet can be written for it)."""
+    t0 = time.monotonic()
+    z_all = draws_z(draws, seed)
+    start, best = nominal, None
+    for k in range(SEARCH_PASSES):
+        u0 = np.clip(problem.to_unit(problem.variables(start)), 0, 1)
+        u = _search(problem, z_all if k else z_all[:SEARCH_DRAWS], u0, min_yield, SEARCH_BAND,
+                    FULL_DRAWS_STRESS_PROBABILITY if k else SEARCH_STRESS_PROBABILITY)
+        d = written(problem, problem.design(problem.from_unit(np.clip(u, 0, 1))), name)
+        tol = tolerance(d, problem.process, draws, seed, problem.travel_mm, problem.law)
+        d, tol = _centred(problem, d, tol, draws, seed, name)
+        why = _misses(problem, d, tol, min_yield)
+        rank = (bool(why), max(_violation(problem, tol), 0.0), tol.hysteresis_fraction_p50)
+        if best is None or rank < best[0]:
+            best = (rank, d, tol, why)
+        if not why:
+            break
+        start = d
+    _, d, tol, why = best
+    _check_domain(problem, d)
     return RobustResult(d, tol, not why, "; ".join(why), time.monotonic() - t0)
-
-
-

@@ -53,18 +53,22 @@ def test_yield_matches_its_exact_value():
     assert t.yield_fraction == pytest.approx(exact, abs=3 * np.sqrt(exact * (1 - exact) / 2000))
 
 
-def test_robust_design_keeps_its_chance_constraints_on_fresh_draws():
-    """The robust 5 N design, re-cut with 1000 draws of another seed: P(stress > allowable)
-    at most 5 % + 2 binomial SDs (1.4 %), the range band inside +-10 % (+1 % for the
-    percentiles' sampling), yield >= 0.9; and its median H is no lower than the nominal
-    design's (robustness has a price, never a gain)."""
-    p = DesignProblem(5.0)
+@pytest.mark.parametrize("range_N", [5.0, 10.0])
+def test_robust_design_keeps_its_chance_constraints_on_fresh_draws(range_N):
+    """The robust 5 and 10 N designs, re-cut with 1000 draws of another seed: P(stress >
+    allowable) at most 5 % + 2 binomial SDs (1.4 %), the range band inside +-10 % (+1 % for
+    the percentiles' sampling), yield >= 0.9; and the median H no lower than the nominal
+    design's (robustness has a price, never a gain). At 10 N the search on 64 of the
+    report's 200 draws ended one part over (P(stress) 5.1 %, "not met"): the second pass, on
+    all of them, keeps the constraints (measured: P(stress) 4.5 %, median H 0.071 against
+    0.058 one part over)."""
+    p = DesignProblem(range_N)
     nominal = optimise(p).design
     rob = robust(p, nominal)
     assert rob.met, rob.why
     fresh = tolerance(rob.design, draws=1000, seed=99)
     assert fresh.p_over_stress <= STRESS_PROBABILITY + 0.014
-    assert fresh.range_N_p5 >= (1 - BAND - 0.01) * 5 and fresh.range_N_p95 <= (1 + BAND + 0.01) * 5
+    assert fresh.range_N_p5 >= (1 - BAND - 0.01) * range_N and fresh.range_N_p95 <= (1 + BAND + 0.01) * range_N
     assert fresh.yield_fraction >= 0.9
     assert fresh.hysteresis_fraction_p50 >= tolerance(nominal, draws=1000, seed=99).hysteresis_fraction_p50
 
