@@ -39,7 +39,7 @@ def answers(range_N: float, body: str, pool) -> dict:
         off = {"off_toggle": _nominal(optimise(DesignProblem(range_N, off_toggle=True), pool,
                                                name=f"{body}-{range_N:g}N-off-toggle"))}
     try:
-        rob = robust(p, nominal.design, name=f"{body}-{range_N:g}N-robust")
+        rob = robust(p, nominal.design, name=f"{body}-{range_N:g}N-robust", pool=pool)
     except DesignError as exc:   # the robust drawing left the hysteresis law's domain
         return {"nominal": _nominal(nominal), **off, "robust_error": str(exc)}
     return {"nominal": _nominal(nominal), **off,

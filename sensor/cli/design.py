@@ -113,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
         rob = None
         if args.robust:
             step("the robust design")
-            rob = robust(problem, best.design, args.draws, args.seed, args.min_yield, name=f"design-{tag}-robust")
+            rob = robust(problem, best.design, args.draws, args.seed, args.min_yield, name=f"design-{tag}-robust",
+                         pool=pool)
         verification = None
         if args.verify:
             from sensor.mechanics.continuum import verify_design

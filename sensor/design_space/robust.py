@@ -11,7 +11,7 @@ over the draws of :func:`sensor.design_space.tolerance.draws_z` (common random n
 candidate is cut with the same deviates, so the percentiles are smooth in the drawing). The
 yield is exact: prod_i Phi((t_i + offset - min_feature) / SD). Method: SLSQP with batched
 forward differences from the nominal answer (:func:`sensor.design_space.optimise.optimise`),
-in the same unit box; the answer is rounded inward and its tolerance report recomputed on all
+and also from the answer off the toggle where that one is next to it, in the same unit box; the answer is rounded inward and its tolerance report recomputed on all
 the draws, where a range band off-centre is centred by scaling every hinge together. Where
 it still misses a chance constraint there (the search saw a few of the draws), the search
 runs again from it on all of them (SEARCH_PASSES).
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import minimize
@@ -34,6 +34,7 @@ from sensor.design_space.optimise import (
     STRESS_SLACK,
     DesignProblem,
     evaluate,
+    optimise,
     solve_designs,
     toggle_miss,
     toggle_rows,
@@ -43,6 +44,7 @@ from sensor.design_space.scatter import as_cut
 from sensor.design_space.tolerance import DRAWS, Tolerance, draws_z, part_statistics, tolerance
 from sensor.errors import DesignError
 from sensor.mechanics.hysteresis import H_LIMIT
+from sensor.mechanics.toggle import stroke_change
 
 STRESS_PROBABILITY, BAND, MIN_YIELD = 0.05, 0.10, 0.9
 #: The search cuts each candidate SEARCH_DRAWS times (the first of the report's deviates) and
@@ -202,29 +204,50 @@ def _misses(problem: DesignProblem, d: Design, tol: Tolerance, min_yield: float)
     return why
 
 
+def _starts(problem: DesignProblem, nominal: Design, pool) -> list[Design]:
+    """The drawings the robust search starts from: the nominal answer and, where that sits
+    next to the toggle (:attr:`~sensor.mechanics.toggle.StrokeChange.near_toggle`; a DACM
+    problem that does not keep off it already), the nominal answer of the same problem off
+    the toggle. Parts cut next to the toggle scatter most (P(stress) 45 and 89 % for the 10
+    and 15 N nominal answers' parts), and the search is local: at 15 N it ended at median H
+    0.1598 from the nominal answer and at 0.1143 from the off-toggle one."""
+    if problem.body == "basis" or problem.off_toggle:
+        return [nominal]
+    model, r = solve_designs([nominal], problem.travel_mm)[0]
+    if model is None or not stroke_change(model, r, nominal.phi2_deg).near_toggle:
+        return [nominal]
+    try:
+        off = optimise(replace(problem, off_toggle=True), pool, name=f"{nominal.name}-off-toggle")
+    except DesignError:   # no body off the toggle reaches the range
+        return [nominal]
+    return [nominal, off.design]
+
+
 def robust(problem: DesignProblem, nominal: Design, draws: int = DRAWS, seed: int = 0,
-           min_yield: float = MIN_YIELD, name: str = "robust") -> RobustResult:
-    """The robust design of ``problem`` from the nominal answer ``nominal``; ``met`` says
-    whether the written design keeps every chance constraint on its tolerance report (and
-    ``why`` not). Raises DesignError if the drawing it ends at is itself past the
-    hysteresis law's domain (no datasheet can be written for it)."""
+           min_yield: float = MIN_YIELD, name: str = "robust", pool=None) -> RobustResult:
+    """The robust design of ``problem`` from the nominal answer ``nominal`` (and from the
+    answer off the toggle where that one is next to it: :func:`_starts`; ``pool`` runs that
+    search); ``met`` says whether the written design keeps every chance constraint on its
+    tolerance report (and ``why`` not). Raises DesignError if the drawing it ends at is itself
+    past the hysteresis law's domain (no datasheet can be written for it)."""
     t0 = time.monotonic()
     z_all = draws_z(draws, seed)
-    start, best = nominal, None
-    for k in range(SEARCH_PASSES):
-        u0 = np.clip(problem.to_unit(problem.variables(start)), 0, 1)
-        u = _search(problem, z_all if k else z_all[:SEARCH_DRAWS], u0, min_yield, SEARCH_BAND,
-                    FULL_DRAWS_STRESS_PROBABILITY if k else SEARCH_STRESS_PROBABILITY)
-        d = written(problem, problem.design(problem.from_unit(np.clip(u, 0, 1))), name)
-        tol = tolerance(d, problem.process, draws, seed, problem.travel_mm, problem.law)
-        d, tol = _centred(problem, d, tol, draws, seed, name)
-        why = _misses(problem, d, tol, min_yield)
-        rank = (bool(why), max(_violation(problem, tol), 0.0), tol.hysteresis_fraction_p50)
-        if best is None or rank < best[0]:
-            best = (rank, d, tol, why)
-        if not why:
-            break
-        start = d
+    best = None
+    for start in _starts(problem, nominal, pool):
+        for k in range(SEARCH_PASSES):
+            u0 = np.clip(problem.to_unit(problem.variables(start)), 0, 1)
+            u = _search(problem, z_all if k else z_all[:SEARCH_DRAWS], u0, min_yield, SEARCH_BAND,
+                        FULL_DRAWS_STRESS_PROBABILITY if k else SEARCH_STRESS_PROBABILITY)
+            d = written(problem, problem.design(problem.from_unit(np.clip(u, 0, 1))), name)
+            tol = tolerance(d, problem.process, draws, seed, problem.travel_mm, problem.law)
+            d, tol = _centred(problem, d, tol, draws, seed, name)
+            why = _misses(problem, d, tol, min_yield)
+            rank = (bool(why), max(_violation(problem, tol), 0.0), tol.hysteresis_fraction_p50)
+            if best is None or rank < best[0]:
+                best = (rank, d, tol, why)
+            if not why:
+                break
+            start = d
     _, d, tol, why = best
     _check_domain(problem, d)
     return RobustResult(d, tol, not why, "; ".join(why), time.monotonic() - t0)
