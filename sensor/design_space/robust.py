@@ -10,11 +10,12 @@ median hysteresis of the parts cut from a drawing, subject to chance constraints
 over the draws of :func:`sensor.design_space.tolerance.draws_z` (common random numbers: every
 candidate is cut with the same deviates, so the percentiles are smooth in the drawing). The
 yield is exact: prod_i Phi((t_i + offset - min_feature) / SD). Method: SLSQP with batched
-forward differences from the nominal answer (:func:`sensor.design_space.optimise.optimise`),
-and also from the answer off the toggle where that one is next to it, in the same unit box; the answer is rounded inward and its tolerance report recomputed on all
-the draws, where a range band off-centre is centred by scaling every hinge together. Where
-it still misses a chance constraint there (the search saw a few of the draws), the search
-runs again from it on all of them (SEARCH_PASSES).
+forward differences in the same unit box, from the nominal answer
+(:func:`sensor.design_space.optimise.optimise`) and, where that one is next to the toggle,
+also from the answer off it (:func:`_starts`); each end is rounded inward and its tolerance
+report recomputed on all the draws, where a range band off-centre is centred by scaling
+every hinge together. Where it still misses a chance constraint there (the search saw a few
+of the draws), the search runs again from it on all of them (SEARCH_PASSES).
 """
 
 from __future__ import annotations
@@ -75,7 +76,7 @@ class RobustResult:
 
 
 def _values(problem: DesignProblem, z_draws: np.ndarray, z: np.ndarray, min_yield: float,
-            band: float = SEARCH_BAND, stress_probability: float = SEARCH_STRESS_PROBABILITY) -> np.ndarray:
+            band: float, stress_probability: float) -> np.ndarray:
     """[log median SE-based H, then the constraints (>= 0 when met)] of variables z: the
     parts' utilisation percentile at 1 - ``stress_probability`` and their range percentiles
     5 and 95 within ``band`` of the range among them; with ``off_toggle`` the drawing's own
@@ -210,7 +211,7 @@ def _starts(problem: DesignProblem, nominal: Design, pool) -> list[Design]:
     problem that does not keep off it already), the nominal answer of the same problem off
     the toggle. Parts cut next to the toggle scatter most (P(stress) 45 and 89 % for the 10
     and 15 N nominal answers' parts), and the search is local: at 15 N it ended at median H
-    0.1598 from the nominal answer and at 0.1143 from the off-toggle one."""
+    0.1598 from the nominal answer and at 0.1142 from the off-toggle one."""
     if problem.body == "basis" or problem.off_toggle:
         return [nominal]
     model, r = solve_designs([nominal], problem.travel_mm)[0]
