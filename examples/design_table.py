@@ -57,12 +57,9 @@ def _nominal(nominal) -> dict:
 def _stroke(design) -> dict:
     """How k_out and A change over the stroke to 1 mm, and whether that is next to the toggle
     (sensor/mechanics/toggle.py)."""
-    from geometry.topology import build_beam_model
-    from sensor.mechanics.solver import solve
-    from sensor.mechanics.toggle import stroke_change
+    from sensor.mechanics.toggle import design_stroke_change
 
-    model = build_beam_model(design)
-    return stroke_change(model, solve(model, target_output_mm=1.0), design.phi2_deg).to_dict()
+    return design_stroke_change(design, 1.0).to_dict()
 
 
 def _angles(d) -> str:

@@ -149,15 +149,11 @@ def cell_toggle(ds: xr.Dataset, hinges: str, phi1: float, phi2: float) -> dict:
     JSON keys): the cell's design solved again, to the travel and to its linear limit."""
     import json
 
-    from geometry.topology import build_beam_model
     from sensor.design_space.spec import SweepSpec
-    from sensor.mechanics.solver import solve
-    from sensor.mechanics.toggle import stroke_change
+    from sensor.mechanics.toggle import design_stroke_change
 
     design = SweepSpec(**_spec_args(ds)).design(hinges, phi1, phi2)
-    model = build_beam_model(design)
-    travel = json.loads(ds.attrs["spec"])["target_output_mm"]
-    return stroke_change(model, solve(model, target_output_mm=travel), design.phi2_deg).to_dict()
+    return design_stroke_change(design, json.loads(ds.attrs["spec"])["target_output_mm"]).to_dict()
 
 
 def edge_note(ds: xr.Dataset, hinges: str, i: int, j: int) -> str:

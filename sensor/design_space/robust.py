@@ -45,7 +45,7 @@ from sensor.design_space.scatter import as_cut
 from sensor.design_space.tolerance import DRAWS, Tolerance, draws_z, part_statistics, tolerance
 from sensor.errors import DesignError
 from sensor.mechanics.hysteresis import H_LIMIT
-from sensor.mechanics.toggle import stroke_change
+from sensor.mechanics.toggle import design_stroke_change
 
 STRESS_PROBABILITY, BAND, MIN_YIELD = 0.05, 0.10, 0.9
 #: The search cuts each candidate SEARCH_DRAWS times (the first of the report's deviates) and
@@ -214,8 +214,7 @@ def _starts(problem: DesignProblem, nominal: Design, pool) -> list[Design]:
     0.1598 from the nominal answer and at 0.1142 from the off-toggle one."""
     if problem.body == "basis" or problem.off_toggle:
         return [nominal]
-    model, r = solve_designs([nominal], problem.travel_mm)[0]
-    if model is None or not stroke_change(model, r, nominal.phi2_deg).near_toggle:
+    if not design_stroke_change(nominal, problem.travel_mm).near_toggle:
         return [nominal]
     try:
         off = optimise(replace(problem, off_toggle=True), pool, name=f"{nominal.name}-off-toggle")

@@ -34,8 +34,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from geometry.topology import BeamModel
-from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION, SolveResult, SolverOptions, solve_batch
+from geometry.params import Design
+from geometry.topology import BeamModel, build_beam_model
+from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION, SolveResult, SolverOptions, solve, solve_batch
 
 #: phi2 (deg) below which a DACM counts as next to the toggle whatever its stroke does.
 PHI2_LIMIT_DEG = 11.0
@@ -114,3 +115,11 @@ def stroke_changes(models: list[BeamModel], results: list[SolveResult], phi2s: l
     return [(None, e) if e is not None else
             (StrokeChange(r.k_out_N_per_mm / lin.k_out_N_per_mm, r.amplification / lin.amplification, phi2), None)
             for r, lin, phi2, e in zip(results, linear, phi2s, errors)]
+
+
+def design_stroke_change(design: Design, travel_mm: float) -> StrokeChange:
+    """The :class:`StrokeChange` of a drawn design, its beam model solved to ``travel_mm``
+    (mm of output travel) and to its linear limit; raises the solve's
+    :class:`~sensor.errors.SolverError`."""
+    model = build_beam_model(design)
+    return stroke_change(model, solve(model, target_output_mm=travel_mm), design.phi2_deg)

@@ -160,13 +160,13 @@ def test_off_toggle_answers_keep_off_the_toggle_and_are_the_continuum_tables(ran
     import json
 
     from geometry.params import design_from_dict
-    from sensor.design_space.optimise import ANGLE_QUANTUM, OFF_TOGGLE_PHI2_DEG, THICKNESS_QUANTUM, solve_designs
-    from sensor.mechanics.toggle import stroke_change
+    from sensor.design_space.optimise import ANGLE_QUANTUM, OFF_TOGGLE_PHI2_DEG, THICKNESS_QUANTUM
+    from sensor.mechanics.toggle import design_stroke_change
     from tests.design_space.test_optimise_reference import REFERENCE_PATH
     from tests.mechanics.make_continuum_table import OFF_TOGGLE
 
     def flagged(design):
-        return stroke_change(*solve_designs([design], 1.0)[0], design.phi2_deg).near_toggle
+        return design_stroke_change(design, 1.0).near_toggle
 
     p = DesignProblem(range_N, off_toggle=True)
     res = optimise(p)
