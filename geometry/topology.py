@@ -75,14 +75,25 @@ DOF_NAMES = ("x", "y", "rz")
 #: and t, not with the fillet's width), less in a body that is not much deeper than that
 #: (a 2 mm plate or knee block under a 1 mm hinge): ``ROOT_BODY_DEPTHS`` sets where that
 #: begins (:func:`root_depth_mm`).
-ROOT_DEPTH_PER_THICKNESS = 0.319
-ROOT_DEPTH_PER_LEAN = 1.142
-ROOT_BODY_DEPTHS = 0.447
+ROOT_DEPTH_PER_THICKNESS = 0.375
+ROOT_DEPTH_PER_LEAN = 0.8725
+ROOT_BODY_DEPTHS = 0.5879
 #: A root fillet widens the neck faster than the bending stress can spread into it (plane
 #: sections do not stay plane where the section grows steeply): each side's fillet counts
 #: up to ``FILLET_SPREAD_SLOPE`` x the distance from where it meets the neck (a load-spread
 #: angle of about 15 deg), the rest of the arc carries little.
-FILLET_SPREAD_SLOPE = 0.268
+FILLET_SPREAD_SLOPE = 0.2565
+#: A face that leans gamma from the neck's normal meets the neck's two edges at different
+#: depths (the acute corner's edge further along it), so the root is stiffer on that side
+#: and an axial force there turns the neck: per leaning root, a compliance coupling an
+#: axial force to the end rotation of -``ROOT_COUPLING_PER_LEAN`` x sin(gamma) / (E b t)
+#: (rad per N; a plane-stress FE of one hinge between a block and a link,
+#: tests/mechanics/hinge_substructure.py, measures it 1.6-8 x the fillets' own coupling,
+#: and present at a sharp root too). The member carries it as the root's centroid offset
+#: towards the acute corner (:func:`hinge_profile`). Least squares on that FE's axial
+#: couplings of ten leaning hinges (t 0.3-1.25 mm, gamma 15-32.3 deg, r 0-0.6 mm), not on
+#: bodies; the four constants above were refitted with it.
+ROOT_COUPLING_PER_LEAN = 1.97
 #: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
 #: points and taken linear between them: the flexibility integrals of a quarter circle
 #: sampled at 8 points are within 0.1 % of the exact arc's).
@@ -218,7 +229,8 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
     axial force bends the fillets (the member's axial-bending coupling,
     sensor.mechanics.solver.profile_flexibility). The elastic root is clamped on the axis, so
     e runs from 0 there to its value at the face (linear between those two stations), as the
-    root rule's constants were fitted with.
+    root rule's constants were fitted with; at a leaning face's root it starts from the
+    offset that carries the root's own coupling (:data:`ROOT_COUPLING_PER_LEAN`) instead.
 
     Cached (a sweep's cells share their hinges); the stations are read-only.
     Returns (stations (k, 3) of s, t and e, (s0, s1) where the uniform neck starts and ends,
@@ -253,6 +265,13 @@ def hinge_profile(t_mm: float, neck_length_mm: float, ends) -> tuple[np.ndarray,
     st = np.column_stack([np.concatenate([[face0 - da], s, [face1 + db]]),
                           np.concatenate([[t[0]], t, [t[-1]]]),
                           np.concatenate([[0.0], e, [0.0]])])
+    # a leaning face's root coupling (ROOT_COUPLING_PER_LEAN): the offset e_r at the elastic
+    # root, falling linearly to the face's, adds int e ds / (E I) = e_r d / 2 x 12 / (E b t0^3)
+    # over the root depth d at the face's width t0, which is K sin(gamma) / (E b t)
+    for row, (_, _, gamma, _), depth in ((0, ends[0], da), (-1, ends[1], db)):
+        if gamma != 0 and depth > 0:
+            lean = math.sin(math.radians(abs(gamma)))
+            st[row, 2] = ROOT_COUPLING_PER_LEAN * lean * st[row, 1] ** 3 / (6 * t_mm * depth)
     shift = da - face0  # the member starts this far behind the start face's axis crossing
     st[:, 0] += shift
     st.flags.writeable = False  # cached: a sweep's cells share their hinges' profiles

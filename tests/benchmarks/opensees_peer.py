@@ -72,16 +72,22 @@ def build(data: dict, n_elements: int) -> list[int]:
             continue
         (xa, ya), (xz, yz) = nodes[m["start"]], nodes[m["end"]]
         length = float(np.hypot(xz - xa, yz - ya))
-        chain, points = [a], [(xa, ya)]
-        for j in range(1, n_elements):
+        chain, points = [], []
+        for j in range(n_elements + 1):
             off = _centroid_offset(m, j / n_elements)  # the nodes on the sections' centroid line
+            end = a if j == 0 else z if j == n_elements else None
+            if end is not None and off == 0.0:
+                chain.append(end)
+                points.append((xa, ya) if j == 0 else (xz, yz))
+                continue
             points.append((xa + (xz - xa) * j / n_elements - off * (yz - ya) / length,
                            ya + (yz - ya) * j / n_elements + off * (xz - xa) / length))
             ops.node(next_node, *points[-1])
+            if end is not None:  # an end section off its node (a leaning root): a rigid arm
+                ops.element("elasticBeamColumn", next_elem, end, next_node, A, E * RIGID_FACTOR, I, 1)
+                next_elem += 1
             chain.append(next_node)
             next_node += 1
-        chain.append(z)
-        points.append((xz, yz))
         for e, (i, j) in enumerate(zip(chain, chain[1:])):
             tag = next_elem
             # an element inclined off the chord is longer than its share of it: its moduli

@@ -109,8 +109,9 @@ def test_hinge_centroid_leaves_the_axis_towards_the_acute_fillet(name):
     """Where a hinge meets a leaning face, the acute corner's fillet meets the neck further
     from the face than the obtuse one's (``fillet_neck_mm``, which the stress rule reads),
     and the sections' centroid (the profile's e, + to the member's left) leaves the axis to
-    that side; it is on the axis at the member's ends (the elastic roots) and the square
-    link end leaves the two fillets level."""
+    that side. At the leaning face's elastic root it starts from the root coupling's offset,
+    to the same side (geometry.topology.ROOT_COUPLING_PER_LEAN); at the square link end's it
+    is on the axis, and that end leaves the two fillets level."""
     m = build_beam_model(preset(name))
     for i in m.hinge_members:
         e, (start, end) = m.profile_mm[i][:, 2], m.fillet_neck_mm[i]
@@ -120,7 +121,8 @@ def test_hinge_centroid_leaves_the_axis_towards_the_acute_fillet(name):
         acute_left = left > right if body_at_start else left < right
         peak = e[np.argmax(np.abs(e))]
         assert (peak > 0) == acute_left and abs(peak) > 0.01, (m.member_name[i], peak)
-        assert e[0] == e[-1] == 0.0
+        body_root, link_root = (e[0], e[-1]) if body_at_start else (e[-1], e[0])
+        assert (body_root > 0) == acute_left and abs(body_root) > 0.01 and link_root == 0.0, m.member_name[i]
 
 
 def test_hinge_numbering_follows_figure48():

@@ -16,10 +16,13 @@ rotation; as n grows it tends to the Timoshenko beam (error O(1/n^2), one-point 
 keeps it free of shear locking). A member with a thickness profile has segments of its mean
 axial and bending compliance per length, their nodes on the sections' centroid line (the
 profile's e, to the left of the chord), so an axial force bends the offset part by the
-segments' geometry alone; a segment inclined off the chord keeps its own length as its
-reference (a rigid rotation strains nothing) and has its stiffnesses scaled by that length
-over its share of the chord's, so that its compliance is that share's (the profile's
-sections are square to the chord). Members of kind ``rigid`` are exactly rigid: the nodes they
+segments' geometry alone. The profile's sections are square to the chord: a segment's
+reference length h is its share of the chord and its reference angle beta the chord's, and
+its reference strains are subtracted (the centroid's rise across it, de, makes the
+reference state's gamma de / h), so a rigid motion strains nothing and its compliance is
+its share's however steeply the centroid line runs; where an end section's centroid is off
+the member's end node (a leaning root's, geometry.topology.ROOT_COUPLING_PER_LEAN), a rigid
+arm joins them. Members of kind ``rigid`` are exactly rigid: the nodes they
 join form rigid bodies with three unknowns each. A dead load F along the input direction acts
 at the input node, and at equilibrium the total potential energy
 
@@ -58,8 +61,9 @@ class Frame:
 
     X: np.ndarray          # (N, 2) reference node positions, mm
     seg: np.ndarray        # (s, 2) node indices of each segment
-    h: np.ndarray          # (s,) reference segment length, mm
-    beta: np.ndarray       # (s,) reference segment angle, rad
+    h: np.ndarray          # (s,) reference segment length (its share of the chord), mm
+    beta: np.ndarray       # (s,) reference section angle (the chord's), rad
+    rise: np.ndarray       # (s,) the centroid line's rise across the segment over h
     stiff: np.ndarray      # (s, 3) EA, kGA (N), EI (N mm^2)
     body: np.ndarray       # (N,) body of each node
     r0: np.ndarray         # (N, 2) node offset from its body's reference node, mm
@@ -124,20 +128,33 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         raise ValueError(f"n_segments = {n_segments!r}: must be an integer >= 1")
     X = [np.asarray(model.nodes, dtype=float)]
     n0 = len(model.nodes)
-    seg, stiff, chord_share = [], [], []
+    seg, stiff, share, angle, rise = [], [], [], [], []
     G = model.E_MPa / (2.0 * (1.0 + model.nu))
     rigid = np.array([k == "rigid" for k in model.member_kind])
     flex = np.flatnonzero(~rigid)
+    offsets = []  # rigid links from a member's end node to its centroid there, where e != 0
+    count = n0
     for k in flex:
         (a, b), t, w = model.member_nodes[k], model.thickness_mm[k], model.depth_mm[k]
-        s = np.linspace(0.0, 1.0, n_segments + 1)[1:-1, None]
-        first = n0 + sum(len(x) for x in X[1:])
         # the segments follow the sections' centroids: e (mm) to the left of the chord
         chord = model.nodes[b] - model.nodes[a]
         left = np.array([-chord[1], chord[0]]) / np.linalg.norm(chord)
-        X.append((1 - s) * model.nodes[a] + s * model.nodes[b] + centroid_offset(model.profile_mm[k], s) * left)
-        chord_share.append(np.full(n_segments, np.linalg.norm(chord) / n_segments))
-        chain = np.concatenate([[a], np.arange(first, first + n_segments - 1), [b]])
+        s = np.linspace(0.0, 1.0, n_segments + 1)
+        e = centroid_offset(model.profile_mm[k], s)
+        points = (1 - s[:, None]) * model.nodes[a] + s[:, None] * model.nodes[b] + e[:, None] * left
+        X.append(points[1:-1])
+        chain = [a, *range(count, count + n_segments - 1), b]
+        count += n_segments - 1
+        for end in (0, -1):
+            if e[end] != 0.0:  # the end's section sits off its node: a rigid arm reaches it
+                X.append(points[[end]])
+                offsets.append((chain[end], count))
+                chain[end] = count
+                count += 1
+        h = np.linalg.norm(chord) / n_segments
+        share.append(np.full(n_segments, h))
+        angle.append(np.full(n_segments, np.arctan2(chord[1], chord[0])))
+        rise.append(np.diff(e) / h)
         seg.append(np.column_stack([chain[:-1], chain[1:]]))
         t_axial, t_bend = segment_thickness(model.profile_mm[k], t, n_segments)
         area = t_axial * w
@@ -145,15 +162,9 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
                                       model.E_MPa * w * t_bend**3 / 12.0]))
     X = np.concatenate(X)
     seg = np.concatenate(seg)
-    d = X[seg[:, 1]] - X[seg[:, 0]]
-    h = np.linalg.norm(d, axis=1)
-    # a segment inclined off the chord is longer than its share of it: its stiffnesses scale
-    # by h / share so that its compliance is the share's (the profile's sections are square
-    # to the chord), and its reference length stays its own (a rigid rotation strains nothing)
-    stiff = np.concatenate(stiff) * (h / np.concatenate(chord_share))[:, None]
     N = len(X)
     # rigid bodies: connected components of the graph of rigid members
-    rm = model.member_nodes[rigid]
+    rm = np.concatenate([model.member_nodes[rigid], np.array(offsets, dtype=int).reshape(-1, 2)])
     graph = sp.coo_matrix((np.ones(len(rm)), (rm[:, 0], rm[:, 1])), shape=(N, N))
     nb, body = connected_components(graph, directed=False)
     held = np.zeros((nb, 3), dtype=bool)
@@ -169,7 +180,7 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         ref[c] = np.flatnonzero(body == c)[0]
     dof = -np.ones((nb, 3), dtype=int)
     dof[~held] = np.arange(int((~held).sum()))
-    return Frame(X, seg, h, np.arctan2(d[:, 1], d[:, 0]), stiff, body, X - X[ref[body]], dof, int((~held).sum()),
+    return Frame(X, seg, np.concatenate(share), np.concatenate(angle), np.concatenate(rise), np.concatenate(stiff), body, X - X[ref[body]], dof, int((~held).sum()),
                  int(model.input_node), np.asarray(model.input_direction, float),
                  int(model.output_node), np.asarray(model.output_direction, float))
 
@@ -215,18 +226,21 @@ def _segments(frame: Frame, u: np.ndarray, th: np.ndarray, order: int):
     t = np.column_stack([np.cos(phi), np.sin(phi)])
     n = np.column_stack([-t[:, 1], t[:, 0]])
     du = (u[j] - u[i]) / h[:, None]
-    # the reference chord is h t(beta): its projections are cos(tm) and -sin(tm); cos - 1 is
-    # formed without cancellation
-    eps = -2.0 * np.sin(0.5 * tm) ** 2 + np.sum(du * t, 1)
-    gam = -np.sin(tm) + np.sum(du * n, 1)
+    b = frame.rise
+    # the reference segment is h (t(beta) + b n(beta)): its projections are cos(tm) + b sin(tm)
+    # and b cos(tm) - sin(tm), less the reference strains (0 and b); cos - 1 is formed
+    # without cancellation
+    cm1 = -2.0 * np.sin(0.5 * tm) ** 2
+    eps = cm1 + b * np.sin(tm) + np.sum(du * t, 1)
+    gam = -np.sin(tm) + b * cm1 + np.sum(du * n, 1)
     kap = (th[j] - th[i]) / h
     energy = 0.5 * h * (EA * eps**2 + GAk * gam**2 + EI * kap**2)
     if order == 0:
         return energy, None, None
     z = np.zeros_like(h)
     one_plus_eps = 1.0 + eps
-    de = np.column_stack([-t[:, 0] / h, -t[:, 1] / h, 0.5 * gam,
-                          t[:, 0] / h, t[:, 1] / h, 0.5 * gam])
+    de = np.column_stack([-t[:, 0] / h, -t[:, 1] / h, 0.5 * (gam + b),
+                          t[:, 0] / h, t[:, 1] / h, 0.5 * (gam + b)])
     dg = np.column_stack([-n[:, 0] / h, -n[:, 1] / h, -0.5 * one_plus_eps,
                           n[:, 0] / h, n[:, 1] / h, -0.5 * one_plus_eps])
     dk = np.column_stack([z, z, -1 / h, z, z, 1 / h])
@@ -245,7 +259,7 @@ def _segments(frame: Frame, u: np.ndarray, th: np.ndarray, order: int):
     for p in (2, 5):
         for r in (2, 5):
             d2e[:, p, r] = -0.25 * one_plus_eps
-            d2g[:, p, r] = -0.25 * gam
+            d2g[:, p, r] = -0.25 * (gam + b)
     def outer(v):
         return v[:, :, None] * v[:, None, :]
 

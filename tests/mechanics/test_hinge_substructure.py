@@ -2,9 +2,11 @@
 hinge_substructure.py): a neck between a block, whose face leans gamma, and a link, in
 plane stress, against the beam model's hinge member (geometry.topology.root_depth_mm).
 
-The rule's constants are fitted to the bodies of the continuum table
+The rule's depth constants are fitted to the bodies of the continuum table
 (tests/mechanics/test_root_rule.py); these tests check its form on a reference that no fit
-has seen: the rotational compliance of a root grows with t sin(gamma)."""
+of them has seen: the rotational compliance of a root grows with t sin(gamma). The oblique
+root's axial coupling (geometry.topology.ROOT_COUPLING_PER_LEAN) is fitted here, on one
+hinge alone, and not on bodies."""
 
 import numpy as np
 import pytest
@@ -59,10 +61,10 @@ def test_fe_reference_is_mesh_converged():
 
 def test_root_depth_grows_with_t_sin_gamma(fe, monkeypatch):
     """The rule's form, its two depth constants fitted to these 13 substructures alone
-    (measured: 0.48 t + 0.52 t sin gamma), holds every one within 1 % (measured 0.59 %:
+    (measured: 0.45 t + 0.52 t sin gamma), holds every one within 1 % (measured 0.42 %:
     the beam model's own accuracy on one hinge, its shear and fillet terms included); the
     best depth that ignores the lean, chosen for the smallest worst error, cannot
-    (measured 2.24 % at 0.60 t: the leaning thick hinges softer than it says, the square
+    (measured 2.27 % at 0.57 t: the leaning thick hinges softer than it says, the square
     ones stiffer)."""
     with_lean = minimize(lambda p: np.sqrt(np.mean(errors_pct(fe, monkeypatch, *p) ** 2)),
                          [0.5, 0.5], method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-3})
@@ -75,30 +77,69 @@ def test_root_depth_grows_with_t_sin_gamma(fe, monkeypatch):
 
 def test_stored_rule_against_every_substructure(fe, monkeypatch):
     """The stored constants, fitted to whole bodies, against the isolated hinge. Measured:
-    rotation -3.6 to +0.7 %, its coupling to a transverse force (where the hinge's effective
-    pivot sits; its sign checks the load and transport conventions) -4.6 to +1.6 %: the
-    bodies want a shallower root at a square face and a deeper one at a leaning face than one
-    hinge in a clamped block shows, what their knees, plates and links add round the roots.
-    A guard, not a target: 5 and 6 %, 1-1.5 points over the measured, so that a refit
-    pulling the rule further from one hinge's mechanics is looked at."""
+    rotation -1.9 to +1.3 %, its coupling to a transverse force (where the hinge's effective
+    pivot sits; its sign checks the load and transport conventions) -2.3 to +1.8 %: the
+    bodies want a slightly shallower root at a square face and a deeper one at a leaning face
+    than one hinge in a clamped block shows, what their knees, plates and links add round the
+    roots (before the oblique root's coupling was in the model, -3.6 to +0.7 and -4.6 to
+    +1.6 %: the lean term then stood in for part of it). A guard, not a target: 3 and 3.5 %,
+    1-1.2 points over the measured, so that a refit pulling the rule further from one hinge's
+    mechanics is looked at."""
     stored = topology.ROOT_DEPTH_PER_THICKNESS, topology.ROOT_DEPTH_PER_LEAN
-    assert np.abs(errors_pct(fe, monkeypatch, *stored)).max() < 5.0
-    assert np.abs(errors_pct(fe, monkeypatch, *stored, entry=(1, 2))).max() < 6.0
+    assert np.abs(errors_pct(fe, monkeypatch, *stored)).max() < 3.0
+    assert np.abs(errors_pct(fe, monkeypatch, *stored, entry=(1, 2))).max() < 3.5
 
 
-def test_fillet_centroid_offset_gives_part_of_the_oblique_roots_coupling(fe):
-    """Where the face leans, the FE's end turns under an axial force (C[0, 2], the
-    axial-bending coupling). The beam model's comes from the fillets' centroid offset alone
-    (geometry.topology.hinge_profile): the FE's sign on every leaning substructure, and
-    measured 11-61 % of its size, most on the thinnest hinge (the rest is the oblique root's
-    own, which whole bodies do not show: README, the part as cut), hence 5-80 %; none on a
-    square face (FE within 1e-7 of 0, against 5e-4 to 7e-3 leaning)."""
+#: The leaning substructures and two sharp-rooted ones: the oblique root's coupling
+#: (geometry.topology.ROOT_COUPLING_PER_LEAN) is fitted on them.
+COUPLED = [s for s in SUBSTRUCTURES if s[1] != 0.0] + [(0.75, 15.0, 0.0), (0.75, 32.3, 0.0)]
+
+
+def coupling_ratios(fe, coupled, monkeypatch, k) -> np.ndarray:
+    """(n, 2): the beam's axial couplings C[0, 1] (transverse) and C[0, 2] (rotation) over the
+    FE's, with the root coupling constant k."""
+    monkeypatch.setattr(topology, "ROOT_COUPLING_PER_LEAN", float(k))
+    topology.hinge_profile.cache_clear()
+    ratios = [[beam_compliance(s[0], NECK_MM, *s[1:])[0, j] / coupled[s][0, j] for j in (1, 2)] for s in COUPLED]
+    topology.hinge_profile.cache_clear()
+    return np.array(ratios)
+
+
+@pytest.fixture(scope="module")
+def coupled(fe):
+    return {s: fe[s] if s in fe else fe_compliance(s[0], NECK_MM, *s[1:]) for s in COUPLED}
+
+
+def test_square_faces_have_no_axial_coupling(fe):
+    """A square face is symmetric about the neck: no coupling in either model (FE within 1e-7
+    of 0, against 5e-4 to 7e-3 on a leaning face)."""
     for (t, gamma, r), c in fe.items():
-        beam = beam_compliance(t, NECK_MM, gamma, r)[0, 2]
         if gamma == 0.0:
-            assert beam == 0.0 and abs(c[0, 2]) < 1e-6, (t, gamma, r, c[0, 2])
-        else:
-            assert 0.05 < beam / c[0, 2] < 0.8, (t, gamma, r, beam, c[0, 2])
+            assert beam_compliance(t, NECK_MM, gamma, r)[0, 2] == 0.0 and abs(c[0, 2]) < 1e-6, (t, r)
+
+
+def test_oblique_roots_coupling_is_the_least_squares_fit(fe, coupled, monkeypatch):
+    """Where the face leans, the FE's end turns (C[0, 2]) and moves across (C[0, 1]) under an
+    axial force. The fillets' centroid offset alone gives 11-62 % of it (measured; none at
+    the sharp roots, which have no fillets); the root's
+    own, k sin(gamma) / (E b t) at each leaning root, makes up the rest. k is the least-squares
+    fit of both relative errors over these ten hinges (linear in k: refitted here in closed
+    form, measured 1.968); the stored constant is that fit to 0.01."""
+    stored = topology.ROOT_COUPLING_PER_LEAN
+    without, unit = coupling_ratios(fe, coupled, monkeypatch, 0.0), coupling_ratios(fe, coupled, monkeypatch, 1.0)
+    assert without.max() < 0.7 and without.min() > -1e-12, without
+    slope = (unit - without).ravel()
+    k = slope @ (1.0 - without.ravel()) / (slope @ slope)
+    assert stored == pytest.approx(k, abs=0.01)
+
+
+def test_oblique_roots_coupling_holds_every_hinge(fe, coupled, monkeypatch):
+    """With the stored constant, both couplings within 20 % of the FE's on every leaning hinge
+    (measured -14.4 to +16.3 %: one constant over fillets of 0 to 0.6 mm, the sharp roots'
+    coupling 10-16 % below it, the widest fillets' up to 14 % above), where the fillets'
+    offset alone is 38-89 % short; the sign is the FE's on every one."""
+    ratios = coupling_ratios(fe, coupled, monkeypatch, topology.ROOT_COUPLING_PER_LEAN)
+    assert np.abs(ratios - 1.0).max() < 0.20, np.round(100 * (ratios - 1.0), 1)
 
 
 @pytest.mark.parametrize("r", [0.0, 0.4])
