@@ -88,7 +88,7 @@ class StrokeChange:
         phi2 = "" if self.phi2_deg is None else f"phi2 {self.phi2_deg:.2f} deg; "
         return (f"next to the toggle ({phi2}over the stroke k_out grows {self.k_out_ratio:.2f} x, A changes "
                 f"{self.amplification_ratio:.2f} x): there the beam model's full-scale k_out and A have "
-                "missed the continuum by up to 8 %; check this body with `dacm verify --nonlinear`")
+                "missed the continuum by up to 5.5 %; check this body with `dacm verify --nonlinear`")
 
 
 def stroke_change(model: BeamModel, result: SolveResult, phi2_deg: float | None,
