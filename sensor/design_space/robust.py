@@ -209,9 +209,10 @@ def _starts(problem: DesignProblem, nominal: Design, pool) -> list[Design]:
     """The drawings the robust search starts from: the nominal answer and, where that sits
     next to the toggle (:attr:`~sensor.mechanics.toggle.StrokeChange.near_toggle`; a DACM
     problem that does not keep off it already), the nominal answer of the same problem off
-    the toggle. Parts cut next to the toggle scatter most (P(stress) 45 and 89 % for the 10
+    the toggle. Parts cut next to the toggle scatter most (P(stress) 47 and 89 % for the 10
     and 15 N nominal answers' parts), and the search is local: at 15 N it ended at median H
-    0.1598 from the nominal answer and at 0.1142 from the off-toggle one."""
+    0.1598 from the nominal answer and at 0.1142 from the off-toggle one (measured on the
+    model before the oblique root's coupling, geometry.topology.ROOT_COUPLING_PER_LEAN)."""
     if problem.body == "basis" or problem.off_toggle:
         return [nominal]
     if not design_stroke_change(nominal, problem.travel_mm).near_toggle:

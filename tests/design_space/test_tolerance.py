@@ -81,10 +81,11 @@ def test_robust_design_keeps_its_chance_constraints_on_fresh_draws(range_N):
 
 def test_robust_answer_next_to_the_toggle_is_no_worse_than_off_it():
     """Keeping off the toggle narrows the problem, so the default robust answer can only be
-    as good or better: at 15 N the nominal answer is next to the toggle (phi2 7.65 deg) and
-    the search from it alone ended at median H 0.1598, against 0.1143 for `--robust
-    --off-toggle`; starting from the off-toggle answer too (robust._starts), it ends at that
-    drawing (measured 0.1142; within 1 % allows for one quantum of the written drawing)."""
+    as good or better: at 15 N the nominal answer is next to the toggle (phi2 7.67 deg). On
+    the model before the oblique root's coupling the search from it alone ended at median H
+    0.1598, against 0.1143 for `--robust --off-toggle`; starting from the off-toggle answer
+    too (robust._starts), it ended at that drawing (0.1142; within 1 % allows for one
+    quantum of the written drawing)."""
     _, rob = robust_answer(15.0)
     _, off = robust_answer(15.0, off_toggle=True)
     assert rob.met and off.met

@@ -95,7 +95,7 @@ def test_stored_rule_against_every_substructure(fe, monkeypatch):
 COUPLED = [s for s in SUBSTRUCTURES if s[1] != 0.0] + [(0.75, 15.0, 0.0), (0.75, 32.3, 0.0)]
 
 
-def coupling_ratios(fe, coupled, monkeypatch, k) -> np.ndarray:
+def coupling_ratios(coupled, monkeypatch, k) -> np.ndarray:
     """(n, 2): the beam's axial couplings C[0, 1] (transverse) and C[0, 2] (rotation) over the
     FE's, with the root coupling constant k."""
     monkeypatch.setattr(topology, "ROOT_COUPLING_PER_LEAN", float(k))
@@ -118,7 +118,7 @@ def test_square_faces_have_no_axial_coupling(fe):
             assert beam_compliance(t, NECK_MM, gamma, r)[0, 2] == 0.0 and abs(c[0, 2]) < 1e-6, (t, r)
 
 
-def test_oblique_roots_coupling_is_the_least_squares_fit(fe, coupled, monkeypatch):
+def test_oblique_roots_coupling_is_the_least_squares_fit(coupled, monkeypatch):
     """Where the face leans, the FE's end turns (C[0, 2]) and moves across (C[0, 1]) under an
     axial force. The fillets' centroid offset alone gives 11-62 % of it (measured; none at
     the sharp roots, which have no fillets); the root's
@@ -126,19 +126,19 @@ def test_oblique_roots_coupling_is_the_least_squares_fit(fe, coupled, monkeypatc
     fit of both relative errors over these ten hinges (linear in k: refitted here in closed
     form, measured 1.968); the stored constant is that fit to 0.01."""
     stored = topology.ROOT_COUPLING_PER_LEAN
-    without, unit = coupling_ratios(fe, coupled, monkeypatch, 0.0), coupling_ratios(fe, coupled, monkeypatch, 1.0)
+    without, unit = coupling_ratios(coupled, monkeypatch, 0.0), coupling_ratios(coupled, monkeypatch, 1.0)
     assert without.max() < 0.7 and without.min() > -1e-12, without
     slope = (unit - without).ravel()
     k = slope @ (1.0 - without.ravel()) / (slope @ slope)
     assert stored == pytest.approx(k, abs=0.01)
 
 
-def test_oblique_roots_coupling_holds_every_hinge(fe, coupled, monkeypatch):
+def test_oblique_roots_coupling_holds_every_hinge(coupled, monkeypatch):
     """With the stored constant, both couplings within 20 % of the FE's on every leaning hinge
     (measured -14.4 to +16.3 %: one constant over fillets of 0 to 0.6 mm, the sharp roots'
     coupling 10-16 % below it, the widest fillets' up to 14 % above), where the fillets'
     offset alone is 38-89 % short; the sign is the FE's on every one."""
-    ratios = coupling_ratios(fe, coupled, monkeypatch, topology.ROOT_COUPLING_PER_LEAN)
+    ratios = coupling_ratios(coupled, monkeypatch, topology.ROOT_COUPLING_PER_LEAN)
     assert np.abs(ratios - 1.0).max() < 0.20, np.round(100 * (ratios - 1.0), 1)
 
 
