@@ -12,7 +12,7 @@ them (about 30 min).
 ``entries``: the part as cut (root fillets r = kerf / 2; kerf 0, 0.4, 0.8 and 1.2 mm) of the
 thesis specimens, ``dacm design`` outputs, thick hinges (t / L up to 0.69), the basis family
 (hinges 1-8 from 0.3 to 1.25 mm), ``dacm design``-like bodies of both materials, the
-seven answers of the README's design table, sixteen bodies next to the toggle and ``dacm
+seven answers of the README's design table, fourteen bodies next to the toggle and ``dacm
 design --off-toggle``'s two answers, linear from 3, 4.24 and 6 elements across each hinge
 (6, 8.5 and 12 where those do not converge within 1 %; Richardson) and nonlinear at 1 mm
 output on the 3-across mesh; held out of any fit by a fixed rule: every third entry of a
