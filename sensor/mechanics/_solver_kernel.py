@@ -81,23 +81,42 @@ def element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, K, Bm, KB
     t2 = _wrap(th[b] - alpha)
     defo[0], defo[1], defo[2] = stretch, t1, t2
     # bowing: the axis is longer than the chord by p11 t1^2 + p12 t1 t2 + p22 t2^2 (for a
-    # uniform member L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30; Bw holds each member's p)
+    # uniform member L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30; Bw holds each member's p), and the
+    # axial force n changes the bending stiffness at second order too: strain energy
+    # n^2 (c11 t1^2 + c12 t1 t2 + c22 t2^2) (Bw[3:]; -L^3 (11, -13, 11) / 12600 EI
+    # for a uniform member, the n^2 term of the stability functions)
     p11, p12, p22 = Bw[k, 0], Bw[k, 1], Bw[k, 2]
+    c11, c12, c22 = Bw[k, 3], Bw[k, 4], Bw[k, 5]
     e0 = stretch + p11 * t1 * t1 + p12 * t1 * t2 + p22 * t2 * t2
     kn = Kn[k]
-    q0 = kn[0, 0] * e0 + kn[0, 1] * t1 + kn[0, 2] * t2
-    q1 = kn[1, 0] * e0 + kn[1, 1] * t1 + kn[1, 2] * t2
-    q2 = kn[2, 0] * e0 + kn[2, 1] * t1 + kn[2, 2] * t2
+    n = kn[0, 0] * e0 + kn[0, 1] * t1 + kn[0, 2] * t2
+    m1 = kn[1, 0] * e0 + kn[1, 1] * t1 + kn[1, 2] * t2
+    m2 = kn[2, 0] * e0 + kn[2, 1] * t1 + kn[2, 2] * t2
+    g = c11 * t1 * t1 + c12 * t1 * t2 + c22 * t2 * t2
+    g1, g2 = 2 * c11 * t1 + c12 * t2, c12 * t1 + 2 * c22 * t2
+    ng2 = 2 * n * g
+    q0 = n + ng2 * kn[0, 0]
+    q1 = m1 + ng2 * kn[0, 1] + n * n * g1
+    q2 = m2 + ng2 * kn[0, 2] + n * n * g2
     b1, b2 = 2 * p11 * t1 + p12 * t2, p12 * t1 + 2 * p22 * t2
     qf[0], qf[1], qf[2] = q0, q1 + q0 * b1, q2 + q0 * b2
-    energy = 0.5 * (e0 * q0 + t1 * q1 + t2 * q2)
-    # local tangent J^T Kn J + N d2(bow)/d(theta)2, J = I + e0 (0, b1, b2) (Kn couples the
+    energy = 0.5 * (e0 * n + t1 * m1 + t2 * m2) + n * n * g
+    # Hessian h of the energy in (e0, t1, t2): Kn, plus the n^2 term's
+    # 2 g kn0 kn0^T + 2 n (kn0 dg^T + dg kn0^T) + n^2 d2g, dg = (0, g1, g2)
+    a0, a1, a2 = kn[0, 0], kn[0, 1], kn[0, 2]
+    h00 = a0 + 2 * g * a0 * a0
+    h01 = a1 + 2 * g * a0 * a1 + 2 * n * a0 * g1
+    h02 = a2 + 2 * g * a0 * a2 + 2 * n * a0 * g2
+    h11 = kn[1, 1] + 2 * g * a1 * a1 + 4 * n * a1 * g1 + 2 * n * n * c11
+    h22 = kn[2, 2] + 2 * g * a2 * a2 + 4 * n * a2 * g2 + 2 * n * n * c22
+    h12 = kn[1, 2] + 2 * g * a1 * a2 + 2 * n * (a1 * g2 + a2 * g1) + n * n * c12
+    # local tangent J^T h J + q0 d2(bow)/d(theta)2, J = I + e0 (0, b1, b2) (Kn couples the
     # stretch to the end rotations where a hinge's centroid leaves its axis)
-    ka = kn[0, 0]
-    k01, k02 = kn[0, 1] + ka * b1, kn[0, 2] + ka * b2
-    k11 = kn[1, 1] + (2 * kn[0, 1] + ka * b1) * b1 + 2 * p11 * q0
-    k22 = kn[2, 2] + (2 * kn[0, 2] + ka * b2) * b2 + 2 * p22 * q0
-    k12 = kn[1, 2] + ka * b1 * b2 + kn[0, 2] * b1 + kn[0, 1] * b2 + p12 * q0
+    ka = h00
+    k01, k02 = h01 + ka * b1, h02 + ka * b2
+    k11 = h11 + (2 * h01 + ka * b1) * b1 + 2 * p11 * q0
+    k22 = h22 + (2 * h02 + ka * b2) * b2 + 2 * p22 * q0
+    k12 = h12 + ka * b1 * b2 + h02 * b1 + h01 * b2 + p12 * q0
     # r = d(stretch)/dx, z = Ln d(chord angle)/dx in node dofs (xa, ya, ta, xb, yb, tb)
     r[0], r[1], r[2], r[3], r[4], r[5] = -c, -s, 0.0, c, s, 0.0
     z[0], z[1], z[2], z[3], z[4], z[5] = s, -c, 0.0, -s, c, 0.0

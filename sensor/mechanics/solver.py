@@ -146,27 +146,42 @@ def _flexibility_of(q, b, E, G, scale=1.0):
     return C
 
 
-#: Sub-intervals per profile segment in the bowing integrals (midpoint rule; the uniform
-#: member's L/15 comes out within 1e-4 relative with 16 on one segment).
+#: Sub-intervals per profile segment in the bowing integrals: midpoint rules with 16 and 32,
+#: whose errors go as the square of the step, combined by Richardson's extrapolation.
 _BOW_SUBSTEPS = 16
 
 
 def profile_bowing(stations):
-    """Bowing coefficients (..., 3) of members whose thickness varies along them: the axis
-    is longer than the chord by p11 theta_a^2 + p12 theta_a theta_b + p22 theta_b^2 when the
-    ends turn by theta_a, theta_b from the chord (the shallow-arch term of the solver's
-    co-rotational members). The deflected shape is that of the member under end moments,
-    curvature M(s) / EI(s) with M linear in s (eqs 80-82), so a neck between stiff fillets
-    bends where it is thin; for a uniform member p = L (2, -1, 2) / 30 (the cubic shape)."""
+    """Bowing and second-order coefficients (..., 6) of members whose thickness varies along
+    them, from the deflected shape under end moments (curvature M(s) / EI(s) with M linear in
+    s, eqs 80-82), so a neck between stiff fillets bends where it is thin:
+
+    * p11, p12, p22 (mm): the axis is longer than the chord by
+      p11 theta_a^2 + p12 theta_a theta_b + p22 theta_b^2 when the ends turn by theta_a,
+      theta_b from the chord (the shallow-arch term of the solver's co-rotational members;
+      for a uniform member L (2, -1, 2) / 30, the cubic shape's);
+    * c11, c12, c22 (mm^4, to be divided by E b / 12): the axial force N's second-order
+      term in the bending energy, N^2 (c11 theta_a^2 + c12 theta_a theta_b + c22 theta_b^2).
+      It is -1/2 int m_i m_j ds / EI over the moments m = w - (a + b s) that the deflection w
+      leaves after its projection onto linear moments (the first-order change of the shape
+      under N, Timoshenko & Gere's beam-column); for a uniform member -L^3 (11, -13, 11) /
+      12600 EI, the N^2 term of the stability functions' series.
+    """
+    coarse, fine = (_bowing_integrals(stations, n) for n in (_BOW_SUBSTEPS, 2 * _BOW_SUBSTEPS))
+    return (4 * fine - coarse) / 3
+
+
+def _bowing_integrals(stations, substeps):
+    """:func:`profile_bowing`'s six integrals by the midpoint rule, ``substeps`` a segment."""
     st = np.asarray(stations, dtype=float)
     s, t = st[..., 0], st[..., 1]
     L = s[..., -1:]
-    frac = (np.arange(_BOW_SUBSTEPS) + 0.5) / _BOW_SUBSTEPS
+    frac = (np.arange(substeps) + 0.5) / substeps
     h = np.diff(s, axis=-1)[..., None]
     x = (s[..., :-1, None] + h * frac).reshape(*s.shape[:-1], -1)
     tx = (t[..., :-1, None] + np.diff(t, axis=-1)[..., None] * frac).reshape(x.shape)
-    ds = np.repeat(np.diff(s, axis=-1) / _BOW_SUBSTEPS, _BOW_SUBSTEPS, axis=-1)
-    flex = ds / tx**3                                       # ds / EI, up to a constant
+    ds = np.repeat(np.diff(s, axis=-1) / substeps, substeps, axis=-1)
+    flex = ds / tx**3                                       # ds / EI, up to E b / 12
     fa, fb = (1 - x / L) * flex, (x / L) * flex            # curvature per unit end moment
     cum_a, cum_b = np.cumsum(fa, -1) - fa / 2, np.cumsum(fb, -1) - fb / 2
     Aa, Ab = fa.sum(-1), fb.sum(-1)
@@ -179,8 +194,18 @@ def profile_bowing(stations):
         ma, mb = (r1 * Cb - Ab * r2) / det, (Aa * r2 - Ca * r1) / det
         return theta_a + ma[..., None] * cum_a + mb[..., None] * cum_b
 
+    def residual_moment(w):  # w less its flex-weighted projection onto a + b x
+        f0, f1, f2 = flex.sum(-1), (flex * x).sum(-1), (flex * x * x).sum(-1)
+        r0, r1 = (flex * w).sum(-1), (flex * w * x).sum(-1)
+        d = f0 * f2 - f1 * f1
+        a, b = (r0 * f2 - r1 * f1) / d, (f0 * r1 - f1 * r0) / d
+        return w - a[..., None] - b[..., None] * x
+
     pa, pb = slope(1.0, 0.0), slope(0.0, 1.0)
-    return np.stack([0.5 * (pa * pa * ds).sum(-1), (pa * pb * ds).sum(-1), 0.5 * (pb * pb * ds).sum(-1)], axis=-1)
+    ma, mb = (residual_moment(np.cumsum(p * ds, -1) - p * ds / 2) for p in (pa, pb))
+    return np.stack([0.5 * (pa * pa * ds).sum(-1), (pa * pb * ds).sum(-1), 0.5 * (pb * pb * ds).sum(-1),
+                     -0.5 * (ma * ma * flex).sum(-1), -(ma * mb * flex).sum(-1), -0.5 * (mb * mb * flex).sum(-1)],
+                    axis=-1)
 
 
 def natural_stiffness(L, t, b, E, G, flexibility=None):
@@ -334,7 +359,7 @@ class _Batch:
     d_out: np.ndarray    # (B, 2) output travel direction
     d_in: np.ndarray     # (B, 2)
     dof_weight: np.ndarray  # (B, n_dof) 1 on forces, 1 / model size on moments (residual norm)
-    bow: np.ndarray      # (B, e, 3) bowing coefficients (profile_bowing)
+    bow: np.ndarray      # (B, e, 6) bowing and second-order coefficients (profile_bowing)
 
     @property
     def kernel_args(self) -> tuple:
@@ -365,13 +390,15 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
 
 
 def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
-    """Tip flexibility (B, e, 3, 3) and bowing coefficients (B, e, 3) of the compliant
+    """Tip flexibility (B, e, 3, 3) and bowing and second-order coefficients (B, e, 6) of the compliant
     members: uniform ones in closed form, those with a thickness profile (hinges with root
     fillets) from :func:`_profile_integrals` and :func:`profile_bowing`,
     all of a batch in one call. The profiles of one member stack across the batch; their
     stations are scaled to the member's undeformed length."""
     C = cantilever_flexibility(L0, t, b, E, G)
-    bow = L0[..., None] * np.array([2.0, -1.0, 2.0]) / 30.0
+    EI = E * b * t**3 / 12.0
+    bow = np.concatenate([L0[..., None] * np.array([2.0, -1.0, 2.0]) / 30.0,
+                          -(L0**3 / EI)[..., None] * np.array([11.0, -13.0, 11.0]) / 12600.0], axis=-1)
     first = models[0].profile_mm
     cols = [j for j, k in enumerate(topo.flex) if first[k] is not None]
     if not cols:
@@ -382,18 +409,19 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     per = _profile_sections([m.profile_mm[k] for m in models for k in members]).reshape(len(models), len(members), _N_SECTION)
     scale = (L0[:, cols] / np.array([[m.profile_mm[k][-1, 0] for k in members] for m in models]))
     C[:, cols] = _flexibility_of(per[..., [0, 1, 2, 3, 7, 8, 9]], b[:, cols], E, G, scale)
-    bow[:, cols] = per[..., 4:7] * scale[..., None]
+    bow[:, cols, :3] = per[..., 4:7] * scale[..., None]
+    bow[:, cols, 3:] = per[..., 10:13] * (12.0 / (E * b[:, cols]) * scale**3)[..., None]
     return C, bow
 
 
 _SECTIONS: dict = {}
-_N_SECTION = 10
+_N_SECTION = 13
 
 
 def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
-    """(n, 10): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
+    """(n, 13): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
     int (L-s)^2 ds/t^3, bowing p11, p12, p22, int e^2 ds/t^3, int e (L-s) ds/t^3,
-    int e ds/t^3) of :func:`_profile_integrals` and :func:`profile_bowing`, cached by its
+    int e ds/t^3, second-order c11, c12, c22) of :func:`_profile_integrals` and :func:`profile_bowing`, cached by its
     shape and bytes; the profiles not cached yet
     (every part of a Monte Carlo draw is new) are integrated together, one batch per shape
     of their station arrays."""
@@ -409,7 +437,7 @@ def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
         q = _profile_integrals(st)
         with np.errstate(invalid="ignore", divide="ignore"):  # zero-length segments
             bow = np.nan_to_num(profile_bowing(st))
-        rows = np.column_stack([q[:, :4], bow, q[:, 4:]])
+        rows = np.column_stack([q[:, :4], bow[:, :3], q[:, 4:], bow[:, 3:]])
         _SECTIONS.update(zip(group, rows))
     return np.array([_SECTIONS[k] for k in keys]).reshape(len(keys), _N_SECTION)
 

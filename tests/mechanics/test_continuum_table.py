@@ -89,7 +89,7 @@ def test_table_covers_presets_and_twelve_cells_of_both_hinge_sets():
 
 
 LINEAR_MISSES = {"03-03-12-4": "A -1.73 %"}
-NONLINEAR_MISSES = {"03-03-28-6": "k +2.66 %, A +1.64 %", "05-03-22-6": "k +4.64 %, A -3.86 %"}
+NONLINEAR_MISSES = {"03-03-28-6": "k +1.42 %, A +1.85 %", "05-03-22-6": "k +3.31 %, A -2.75 %"}
 #: Cut-part entries the beam model misses (the issue's targets, 3 % on k_out and 1.5 % on
 #: A; strict: they fail if the model comes to meet them): 3 of the 73 in the linear limit and
 #: 8 of the 70 stable ones at 1 mm (before the oblique root's coupling,
@@ -121,13 +121,12 @@ CUT_MISSES = {"like-10-delrin": "A -2.22 %", "thick-20-15-0.9-0.6-L1.6": "A -1.8
               "thick-22-17.2-1.4-0.6": "A -2.12 %"}
 CUT_MISSES_1MM = {"answer-proposed-10N": "A +1.98 % (FE peak 37 MPa at 1 mm)",
                   "answer-proposed-15N": "A +1.80 % (FE peak 39 MPa at 1 mm)",
-                  "like-4-delrin": "k +5.50 %, A -5.28 % (FE peak 71 MPa at 1 mm)",
-                  "thick-22-17.2-1.4-0.6": "A -2.01 % (FE peak 92 MPa at 1 mm)",
+                  "like-4-delrin": "k +4.65 %, A -4.60 % (FE peak 71 MPa at 1 mm)",
+                  "thick-22-17.2-1.4-0.6": "A -1.98 % (FE peak 92 MPa at 1 mm)",
                   # next to the toggle: phi2 7.2-9.1 deg (the toggle-band family)
-                  "toggle-band-0": "k +3.09 % (FE peak 55 MPa at 1 mm)",
-                  "toggle-band-k2.0-10N": "A +1.71 % (FE peak 36 MPa at 1 mm)",
-                  "toggle-band-k2.0-15N": "A +2.22 % (FE peak 38 MPa at 1 mm)",
-                  "toggle-band-k2.2-15N": "A +2.19 % (FE peak 39 MPa at 1 mm)"}
+                  "toggle-band-k2.0-10N": "A +1.67 % (FE peak 36 MPa at 1 mm)",
+                  "toggle-band-k2.0-15N": "A +2.29 % (FE peak 38 MPa at 1 mm)",
+                  "toggle-band-k2.2-15N": "A +2.27 % (FE peak 39 MPa at 1 mm)"}
 
 
 def _cases(names, misses):
