@@ -18,7 +18,7 @@ How the thesis' method maps onto the code:
   term, L (2 t_a^2 - t_a t_b + 2 t_b^2) / 30 for the cubic shape): this couples axial force
   and bending inside the member, to first order in the axial force N; the N^2 term of the
   stability functions is carried too (a compressed knee hinge reaches N L^2 / EI = -4.8 by
-  1 mm next to the toggle, where the first-order term alone is 1 % too stiff). So one
+  1 mm next to the toggle, where the first-order term alone is about 1.4 % too stiff). So one
   element per hinge or link is enough (checked within 0.3 % against an independent
   32-segment geometrically exact frame model on the presets; within 0.2 point of k_out of
   the same model split into 8 next to the toggle, 0.7 on the worst body, like-4).
@@ -165,11 +165,13 @@ def profile_bowing(stations):
       theta_b from the chord (the shallow-arch term of the solver's co-rotational members;
       for a uniform member L (2, -1, 2) / 30, the cubic shape's);
     * c11, c12, c22 (mm^4, to be divided by E b / 12): the axial force N's second-order
-      term in the bending energy, N^2 (c11 theta_a^2 + c12 theta_a theta_b + c22 theta_b^2).
-      It is -1/2 int m_i m_j ds / EI over the moments m = w - (a + b s) that the deflection w
-      leaves after its projection onto linear moments (the first-order change of the shape
-      under N, Timoshenko & Gere's beam-column); for a uniform member -L^3 (11, -13, 11) /
-      12600 EI, the N^2 term of the stability functions' series.
+      term in the bending energy, N^2 (c11 theta_a^2 + c12 theta_a theta_b + c22 theta_b^2):
+      c11 = -1/2 int m_a^2 ds / EI, c12 = -int m_a m_b ds / EI, c22 = -1/2 int m_b^2 ds / EI,
+      where m_a, m_b are the deflections w under unit end rotations less their (1 / EI)-
+      weighted projections onto a + b s: the moments of the first-order change of the shape
+      under N (the beam-column of Timoshenko & Gere, Theory of Elastic Stability, 1.9); for
+      a uniform member -L^3 (11, -13, 11) / 12600 EI, the N^2 term of the stability
+      functions' series.
     """
     coarse, fine = (_bowing_integrals(stations, n) for n in (_BOW_SUBSTEPS, 2 * _BOW_SUBSTEPS))
     return (4 * fine - coarse) / 3
