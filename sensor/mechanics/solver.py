@@ -201,11 +201,12 @@ def _bowing_integrals(stations, substeps):
         ma, mb = (r1 * Cb - Ab * r2) / det, (Aa * r2 - Ca * r1) / det
         return theta_a + ma[..., None] * cum_a + mb[..., None] * cum_b
 
+    f0, f1, f2 = flex.sum(-1), (flex * x).sum(-1), (flex * x * x).sum(-1)
+    gram = f0 * f2 - f1 * f1
+
     def residual_moment(w):  # w less its flex-weighted projection onto a + b x
-        f0, f1, f2 = flex.sum(-1), (flex * x).sum(-1), (flex * x * x).sum(-1)
         r0, r1 = (flex * w).sum(-1), (flex * w * x).sum(-1)
-        d = f0 * f2 - f1 * f1
-        a, b = (r0 * f2 - r1 * f1) / d, (f0 * r1 - f1 * r0) / d
+        a, b = (r0 * f2 - r1 * f1) / gram, (f0 * r1 - f1 * r0) / gram
         return w - a[..., None] - b[..., None] * x
 
     pa, pb = slope(1.0, 0.0), slope(0.0, 1.0)

@@ -88,6 +88,15 @@ def test_tangent_is_the_derivative_of_the_out_of_balance_forces(name):
     assert np.max(np.abs(tangent - fd)) <= 1e-6 * np.max(np.abs(tangent))
 
 
+def one_member(kn, bw, L, u, th, w):
+    """The kernel's element for one member of chord (L, 0) from node 0 to node 1 (their
+    bodies' offsets zero): (strain energy, chord-frame forces qf, node forces f)."""
+    qf = np.empty(3)
+    energy = K.element(0, np.array([0]), np.array([1]), np.array([[L, 0.0]]), np.array([L]), np.zeros(1),
+                       kn[None], bw[None], u, th, np.zeros((2, 2)), np.empty(3), qf, w.f, w.Ke, w.Bm, w.KB, w.z, w.r)
+    return energy, qf, w.f.copy()
+
+
 def exact_end_stiffness(phi):
     """Rotational stiffness (k_aa, k_ab) x L / EI of a uniform Euler-Bernoulli member under an
     axial force N, phi = N L^2 / EI (tension positive), ends held on the chord: the stability
@@ -128,9 +137,7 @@ def test_member_end_moments_follow_the_stability_functions(phi, second_order):
     for theta, column in (((1e-6, 0.0), 0), ((0.0, 1e-6), 1)):
         u = np.array([[0.0, 0.0], [stretch, 0.0]])
         th = np.array(theta)
-        qf = np.empty(3)
-        K.element(0, np.array([0]), np.array([1]), np.array([[L, 0.0]]), np.array([L]), np.zeros(1),
-                  kn[None], bw[None], u, th, np.zeros((2, 2)), np.empty(3), qf, w.f, w.Ke, w.Bm, w.KB, w.z, w.r)
+        _, qf, _ = one_member(kn, bw, L, u, th, w)
         k_aa, k_ba = qf[1 + column] / 1e-6, qf[2 - column] / 1e-6
         err = max(abs(k_aa / exact[0] - 1), abs(k_ba - exact[1]) / exact[0])
         if second_order:
@@ -154,13 +161,10 @@ def test_member_forces_are_the_gradient_of_its_strain_energy():
     kn = natural_stiffness(L, 0.3, b, E, E / 2.7, profile_flexibility(stations, b, E, E / 2.7))
     bw = profile_bowing(stations[:, :2]) * np.r_[1, 1, 1, np.full(3, 12e3 / (E * b))]
     w = K.work(2, 6)
-    args = (np.array([0]), np.array([1]), np.array([[L, 0.0]]), np.array([L]), np.zeros(1), kn[None], bw[None])
 
     def energy_and_force(x):
-        u = np.array([[x[0], x[1]], [x[3], x[4]]])
-        e = K.element(0, *args, u, np.array([x[2], x[5]]), np.zeros((2, 2)), np.empty(3), np.empty(3),
-                      w.f, w.Ke, w.Bm, w.KB, w.z, w.r)
-        return e, w.f.copy()
+        energy, _, f = one_member(kn, bw, L, np.array([[x[0], x[1]], [x[3], x[4]]]), np.array([x[2], x[5]]), w)
+        return energy, f
 
     x = np.array([0.0, 0.0, 0.2, 0.004, 0.1 * L, -0.15])
     _, f = energy_and_force(x)
