@@ -37,7 +37,7 @@ from geometry.process import Process
 from sensor.design_space.optimise import PAIRS
 from sensor.design_space.scatter import as_cut
 from sensor.mechanics.hysteresis import StrainEnergyLaw
-from sensor.mechanics.stress import hinge_stresses
+from sensor.mechanics.stress import peak_stresses
 
 #: The seed of :func:`surface_draws`' scrambling.
 SOBOL_SEED = 0
@@ -102,8 +102,7 @@ def response_surface(design: Design, process: Process, travel_mm: float) -> Resp
     log_range = np.log([r.input_force_N for r in cut.results])
     log_se = np.log([r.strain_energy_mJ for r in cut.results])
     allow = design.material.allowable_stress_MPa
-    util = np.array([[s.peak_MPa / allow for s in (hinge_stresses(m, r)[h] for h in used)]
-                     for m, r in zip(cut.models, cut.results)])
+    util = peak_stresses(cut.models, cut.results) / allow   # (parts, used hinges), hinge-number order
     column = {h: j for j, h in enumerate(used)}
     g_r, c_r, g_e, c_e = (np.zeros(12) for _ in range(4))
     J = np.zeros((len(used), 12))

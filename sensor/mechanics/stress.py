@@ -172,10 +172,7 @@ def stress_check(design: Design, model: BeamModel, result) -> StressCheck:
 def stress_checks(designs, models, results) -> list[StressCheck]:
     """:func:`stress_check` of each (design, model, result), the hinges of all of them in one
     vectorised pass (a sweep row checks 41)."""
-    loads = [_hinge_loads(m, r) for m, r in zip(models, results)]
-    nominal, factor, worst, _ = _stresses(*(np.concatenate(a, axis=-1) for a in zip(*loads)))
-    k = np.arange(len(worst))
-    nominal, factor = nominal[worst, k], factor[worst, k]
+    nominal, factor = _governing(models, results)
     peak = factor * nominal
     checks, start = [], 0
     for design, model in zip(designs, models):
@@ -190,6 +187,23 @@ def stress_checks(designs, models, results) -> list[StressCheck]:
         checks.append(StressCheck(ratio <= 1.0, hinge, float(peak[i]), allow, ratio, msg))
         start += len(numbers)
     return checks
+
+
+def _governing(models, results) -> tuple[np.ndarray, np.ndarray]:
+    """The governing nominal stress (MPa) and its factor of every hinge of every (model,
+    result), the models' hinges one after another (each in hinge-number order), in one
+    vectorised pass."""
+    loads = [_hinge_loads(m, r) for m, r in zip(models, results)]
+    nominal, factor, worst, _ = _stresses(*(np.concatenate(a, axis=-1) for a in zip(*loads)))
+    k = np.arange(len(worst))
+    return nominal[worst, k], factor[worst, k]
+
+
+def peak_stresses(models, results) -> np.ndarray:
+    """Each hinge's peak stress (MPa; :func:`hinge_stresses`' ``peak_MPa``) of models with
+    the same hinges, solved (``results``): (models, hinges), in hinge-number order."""
+    nominal, factor = _governing(models, results)
+    return (factor * nominal).reshape(len(models), -1)
 
 
 def stress_ok(design: Design, model: BeamModel, result) -> bool:
