@@ -1,5 +1,7 @@
 """The chain-algorithm solver against exact solutions, conservation laws and limit cases."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -62,8 +64,8 @@ def beam_column_energy(stations, N, theta_a, theta_b, b=1.0):
 
 
 def test_profile_bowing_is_the_axial_force_series_of_a_tapered_members_stiffness():
-    """A neck between thick ends (0.9 -> 0.3 -> 0.9 mm over 3 mm, linear, like a filleted
-    hinge): its bending energy under end rotations, expanded in the axial force N, is
+    """A neck between thick ends of unequal thickness (0.9 -> 0.3 -> 0.6 mm over 1 + 2 mm,
+    linear, like a filleted hinge; unequal, so a swap of its two ends would show): its bending energy under end rotations, expanded in the axial force N, is
     N p(theta) + N^2 c(theta) beyond the N = 0 energy (p the bowing, c the second-order
     coefficients of profile_bowing, times 12 / E b). Measured by central differences of the
     boundary-value solution at N = +-0.2 and +-0.4 N (Richardson-combined so the N^3 and N^4
@@ -72,7 +74,7 @@ def test_profile_bowing_is_the_axial_force_series_of_a_tapered_members_stiffness
     1e-8)."""
     from sensor.mechanics.solver import profile_bowing
 
-    stations = np.array([[0.0, 0.9], [1.5, 0.3], [3.0, 0.9]])
+    stations = np.array([[0.0, 0.9], [1.0, 0.3], [3.0, 0.6]])
     p11, p12, p22, c11, c12, c22 = profile_bowing(stations) * np.r_[1, 1, 1, np.full(3, 12 / E)]
     for (ta, tb), p, c in (((1.0, 0.0), p11, c11), ((0.0, 1.0), p22, c22), ((1.0, 1.0), p11 + p12 + p22, c11 + c12 + c22)):
         U = {N: beam_column_energy(stations, N, ta, tb) for N in (-0.4, -0.2, 0.0, 0.2, 0.4)}
@@ -80,6 +82,22 @@ def test_profile_bowing_is_the_axial_force_series_of_a_tapered_members_stiffness
         second = (4 * (U[0.2] + U[-0.2] - 2 * U[0.0]) / 0.04 - (U[0.4] + U[-0.4] - 2 * U[0.0]) / 0.16) / 3 / 2
         assert first == pytest.approx(p, rel=5e-4)
         assert second == pytest.approx(c, rel=5e-4)
+
+
+def test_uniform_members_closed_form_equals_their_profile_integrals():
+    """A bent cantilever of two uniform members (0.4 mm, L 3 and 2 mm) pushed sideways to
+    about 40 % of its length: solved with the members' closed-form sections
+    (solver._member_sections) and again with each member given as a uniform thickness
+    profile drawn at twice its length (the integrals then scaled to the member's length),
+    the two agree within 1e-6 on the tip travel and the strain energy (the profile
+    integrals' midpoint rules are exact on a uniform member, up to rounding)."""
+    base = chain_model([(0, 0), (3, 0), (5, 0)], 0.4, out=2, inp_dir=(0, -1), out_dir=(0, -1))
+    profiled = dataclasses.replace(base, profile_mm=tuple(np.array([[0.0, 0.4, 0.0], [2 * L, 0.4, 0.0]])
+                                                          for L in base.lengths_mm))
+    a, b = (solve(m, target_force_N=0.7) for m in (base, profiled))
+    assert a.output_travel_mm > 2.0
+    assert b.output_travel_mm == pytest.approx(a.output_travel_mm, rel=1e-6)
+    assert b.strain_energy_mJ == pytest.approx(a.strain_energy_mJ, rel=1e-6)
 
 
 # --- linear: a cantilever with bending, axial and shear terms (eqs 80-82) -----------------
