@@ -203,11 +203,16 @@ def _search(problem: DesignProblem, z_draws: np.ndarray, u0: np.ndarray, min_yie
     constraints = [{"type": "ineq", "fun": lambda x: at(x)[1:], "jac": lambda x: grad(x)[1:]}]
 
     def restore(u, bounds):
-        """Phase one: SLSQP to the nearest point that keeps the constraints (the projection
-        of u on them: it stays where the start's H is, where pushing every constraint as far
-        in as it goes would leave it)."""
-        minimize(lambda x: float(np.sum((x - u) ** 2)), u, jac=lambda x: 2 * (x - u), method="SLSQP",
-                 bounds=bounds, constraints=constraints, options={"maxiter": ITERATIONS, "ftol": 1e-10})
+        """Phase one: SLSQP on (u, s) to the deepest point inside the constraints it reaches
+        (maximise s subject to every constraint >= s). The nearest point that keeps them
+        (the projection of u) was tried: its descents ended higher at 5 N (median H 0.0629
+        against 0.0424) and within 4 % at 10 and 15 N."""
+        n = len(u)
+        minimize(lambda x: -x[n], np.append(u, at(u)[1:].min()), jac=lambda x: -np.eye(n + 1)[n], method="SLSQP",
+                 bounds=bounds + [(-10.0, 0.05)],
+                 constraints=[{"type": "ineq", "fun": lambda x: at(x[:n])[1:] - x[n],
+                               "jac": lambda x: np.column_stack([grad(x[:n])[1:], -np.ones(len(at(x[:n])) - 1)])}],
+                 options={"maxiter": ITERATIONS, "ftol": 1e-8})
 
     def descend(u, bounds):
         """Phase two: SLSQP on the objective subject to the constraints."""
