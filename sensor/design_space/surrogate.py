@@ -21,8 +21,9 @@ The mirror symmetry of the body halves the solves: moving a right-hand hinge is 
 image of moving its left-hand twin (1 + 2 x 6 solves for the DACM, 1 + 2 x 4 for the basis
 body, against a Monte Carlo's 200). On the 5, 10 and 15 N nominal answers, on the same 200
 draws, the surface's range percentiles were within 0.7 % of the Monte Carlo's, its median H
-within 1 % and P(stress > allowable) within 0.03 (tests/design_space/test_surrogate.py checks
-it on the report's draws).
+within 1 % and P(stress > allowable) within 0.03 (one-off runs);
+tests/design_space/test_surrogate.py checks a body next to the toggle and one off it on 400
+draws.
 """
 
 from __future__ import annotations
