@@ -11,7 +11,7 @@ for the process (:class:`geometry.process.Process`: every hinge drawn + offset +
 The search reads a candidate's parts off its response surface
 (:mod:`sensor.design_space.surrogate`: 13 solves, then the percentiles over SURFACE_DRAWS
 quasi-random draws that are the same for every candidate and every seed, so they are smooth
-in the drawing and the search does not depend on the report's seed). The yield is exact:
+in the drawing and the first pass does not depend on the report's seed). The yield is exact:
 prod_i Phi((t_i + offset - min_feature) / SD). Method: SLSQP with forward differences in the
 same unit box, in trust-region boxes (:func:`_search`), from the nominal answer
 (:func:`sensor.design_space.optimise.optimise`) and, where that one is next to the toggle,
