@@ -221,7 +221,6 @@ def _search(problem: DesignProblem, z_draws: np.ndarray, u0: np.ndarray, min_yie
                  options={"maxiter": ITERATIONS, "ftol": 1e-8})
 
     u = np.asarray(u0, dtype=float)
-    at(u)
     with threadpool_limits(1):     # as the nominal search: the answer must not depend on the cores
         for _ in range(TRUST_BOXES):
             bounds = list(zip(np.maximum(u - TRUST_RADIUS, 0.0), np.minimum(u + TRUST_RADIUS, 1.0)))

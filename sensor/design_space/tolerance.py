@@ -51,7 +51,7 @@ class Tolerance:
 
 def draws_z(draws: int = DRAWS, seed: int = 0) -> np.ndarray:
     """The standard normal deviates (draws x 12) of a report: the same for every design of a
-    seed (common random numbers, so the robust search compares designs on equal parts)."""
+    seed (common random numbers: designs of one report are compared on equal parts)."""
     return np.random.default_rng(seed).standard_normal((draws, 12))
 
 
