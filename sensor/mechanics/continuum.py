@@ -39,6 +39,7 @@ from numba import njit
 
 from geometry.layout import make_layout, make_parts
 from geometry.params import FIELD_RULES, Design, cut_note
+from geometry.topology import INPUT_CONTACT_MM
 from geometry.validation import Number
 from sensor.errors import ConvergenceError, SensorInputError, SolverError
 from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION
@@ -50,15 +51,16 @@ CLAMPS = ("bottom edge", "base plate")
 #: The punch's width (mm): the contact the input is pushed through. DESIGN section 3's input
 #: is a force at the top plate's centre, but a point force has no finite travel in plane
 #: elasticity (the contact's own compliance grows as ln(1 / width)): the reference pushes a
-#: 0.5 mm punch, and the beam model takes the top plate's centre-line deflection as the
-#: input travel (no contact compliance). A depends on the contact where the top plate takes
+#: 0.5 mm punch (geometry.topology.INPUT_CONTACT_MM), and the beam model spreads its input
+#: over the same contact and takes the top plate's centre-line deflection as the input
+#: travel (no contact compliance). A depends on the contact where the top plate takes
 #: most of the input travel (next to the toggle): on 03-03-12-4 (phi2 4 deg), 12 elements
 #: across, A is 2.1272 with a 0.1 mm punch, 2.1404 with 0.25, 2.1666 with 0.5 and 2.2403
 #: with 1 mm, k_out within 0.2 % (a uniform pressure over 0.5 mm gives A within 0.1 % of the
 #: punch's: it is the spread, not the punch's rigidity). A plain 2 mm plate clamped over a
 #: 17.4 mm span (plane strain, one run) shows why: under a 0.1 mm punch it is 2.3 % more
 #: compliant than under 0.5 mm, under 0.05 mm 0.8 % more again (elements of 0.025 mm).
-PUNCH_WIDTH_MM = 0.5
+PUNCH_WIDTH_MM = INPUT_CONTACT_MM
 
 
 def punch_rule(design: Design) -> Number:
@@ -870,16 +872,17 @@ class Verification:
     errors_pct: dict
 
 
-def _beam_side(design: Design, target_output_mm: float, nonlinear: bool) -> dict:
-    """The beam model's values beside the FE's or, nonlinear, ``{"unstable": why}`` when its
-    path stops being stable before the target (its Newton iterations may also fail just past
-    the bifurcation: a ConvergenceError)."""
+def _beam_side(design: Design, target_output_mm: float, nonlinear: bool, punch_width_mm: float) -> dict:
+    """The beam model's values beside the FE's, its input spread over the punch's width
+    (mm), or, nonlinear, ``{"unstable": why}`` when its path stops being stable before the
+    target (its Newton iterations may also fail just past the bifurcation: a
+    ConvergenceError)."""
     from geometry.topology import build_beam_model
     from sensor.errors import InstabilityError
     from sensor.mechanics.solver import solve
     from sensor.mechanics.stress import hinge_stresses
 
-    model = build_beam_model(design)
+    model = build_beam_model(design, contact_mm=punch_width_mm)
     travel = target_output_mm if nonlinear else target_output_mm * LINEAR_LIMIT_FRACTION
     try:
         r = solve(model, target_output_mm=travel)
@@ -947,7 +950,7 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     from geometry.topology import root_radius_mm
 
     fe_summary.update(_utilisation(design, fe_summary["hinge_peak_stress_MPa"] if root_radius_mm(design) > 0 else None))
-    beam = _beam_side(design, target_output_mm, nonlinear)
+    beam = _beam_side(design, target_output_mm, nonlinear, punch_width_mm)
     if "unstable" in beam:
         return Verification(design, str(mesh), fe, tuple(runs), conv, fe_summary, beam, {})
     errors = {q: relative_error_pct(beam[q], fe_summary[q]) for q in CONVERGED + KNEE_MOTION}

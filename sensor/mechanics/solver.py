@@ -409,9 +409,17 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
                           -(L0**3 / EI)[..., None] * np.array([11.0, -13.0, 11.0]) / 12600.0], axis=-1)
     first = models[0].profile_mm
     cols = [j for j, k in enumerate(topo.flex) if first[k] is not None]
-    if not cols:
-        return C, bow
-    members = topo.flex[cols]
+    if cols:
+        _profiled_sections(topo.flex[cols], cols, models, L0, b, E, G, C, bow)
+    # the hinges' axial compliance beyond their profiles' (geometry.topology.axial_spread)
+    C[..., 0, 0] += np.stack([m.axial_spread[topo.flex] for m in models]) / (E * b)
+    return C, bow
+
+
+def _profiled_sections(members, cols, models, L0, b, E, G, C, bow) -> None:
+    """Fill in the flexibility C and the coefficients ``bow`` (see :func:`_member_sections`)
+    of the members with a thickness profile (model indices ``members``, batch columns
+    ``cols``)."""
     # the integrals depend on the profile alone (a sweep's cells share a few): each distinct
     # profile is integrated once, then scaled by each design's E, G and depth
     per = _profile_sections([m.profile_mm[k] for m in models for k in members]).reshape(len(models), len(members), _N_SECTION)
@@ -419,7 +427,6 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     C[:, cols] = _flexibility_of(per[..., [0, 1, 2, 3, 7, 8, 9]], b[:, cols], E, G, scale)
     bow[:, cols, :3] = per[..., 4:7] * scale[..., None]
     bow[:, cols, 3:] = per[..., 10:13] * (12.0 / (E * b[:, cols]) * scale**3)[..., None]
-    return C, bow
 
 
 _SECTIONS: dict = {}

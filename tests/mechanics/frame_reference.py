@@ -22,7 +22,8 @@ its reference strains are subtracted (the centroid's rise across it, de, makes t
 reference state's gamma de / h), so a rigid motion strains nothing and its compliance is
 its share's however steeply the centroid line runs; where an end section's centroid is off
 the member's end node (a leaning root's, geometry.topology.ROOT_COUPLING_PER_LEAN), a rigid
-arm joins them. Members of kind ``rigid`` are exactly rigid: the nodes they
+arm joins them. A member's axial spread (geometry.topology.axial_spread) adds to its
+segments' axial compliance, evenly along it. Members of kind ``rigid`` are exactly rigid: the nodes they
 join form rigid bodies with three unknowns each. A dead load F along the input direction acts
 at the input node, and at equilibrium the total potential energy
 
@@ -157,7 +158,8 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         rise.append(np.diff(e) / h)
         seg.append(np.column_stack([chain[:-1], chain[1:]]))
         t_axial, t_bend = segment_thickness(model.profile_mm[k], t, n_segments)
-        area = t_axial * w
+        # the member's axial spread (geometry.topology.axial_spread), spread along it
+        area = w / (1.0 / t_axial + model.axial_spread[k] / np.linalg.norm(chord))
         stiff.append(np.column_stack([model.E_MPa * area, SHEAR_CORRECTION * G * area,
                                       model.E_MPa * w * t_bend**3 / 12.0]))
     X = np.concatenate(X)
@@ -369,6 +371,7 @@ def split_members(model: BeamModel, n: int) -> BeamModel:
         count += n - 1
         rows += [(chain[i], chain[i + 1], k, i == 0) for i in range(n)]
     start, end, src, first = (np.array(c) for c in zip(*rows))
+    pieces = np.array([1 if model.member_kind[k] == "rigid" else n for k in src])  # a member's share of its spread
     piece = np.zeros(len(src), dtype=int)
     for i in range(1, len(src)):
         piece[i] = piece[i - 1] + 1 if src[i] == src[i - 1] else 0
@@ -380,7 +383,7 @@ def split_members(model: BeamModel, n: int) -> BeamModel:
         member_name=tuple(model.member_name[k] for k in src),
         profile_mm=tuple(_piece_profile(model.profile_mm[k], i, n if model.member_kind[k] != "rigid" else 1)
                          for k, i in zip(src, piece)),
-        neck_mm=None, root_radius_mm=None)
+        neck_mm=None, root_radius_mm=None, axial_spread=model.axial_spread[src] / pieces)
 
 
 def _piece_profile(profile, i: int, n: int):

@@ -2,7 +2,8 @@
 (geometry.topology.root_depth_mm) describes, as a continuum reference independent of the
 beam model.
 
-A neck of thickness t leaves the top face of a block (16 x 6 mm, its bottom edge clamped)
+A neck of thickness t leaves the top face of a block (16 mm wide, 6 mm deep unless said
+otherwise, its bottom edge clamped)
 along an axis that leans ``gamma_deg`` from the face's normal, runs the drawn neck length
 (measured along the axis from where it crosses the face) and enters a link 2 mm wide
 square to it, whose end lies 5 mm further on. Every re-entrant corner is rounded with the
@@ -13,15 +14,16 @@ the compliance is the work-conjugate one, C_jk = int traction_j . u_k ds per uni
 at the neck, growing away from it (gmsh).
 
 The beam side is the model's own hinge member (geometry.topology.hinge_profile, its
-flexibility by sensor.mechanics.solver.profile_flexibility) carried rigidly from the
-block's effective root to the link, and the rest of the link as a cantilever.
+flexibility by sensor.mechanics.solver.profile_flexibility, with the axial compliance of
+geometry.topology.axial_spread) carried rigidly from the block's effective root to the link,
+and the rest of the link as a cantilever.
 """
 
 import math
 
 import numpy as np
 
-from geometry.topology import hinge_profile
+from geometry.topology import axial_spread, hinge_profile
 from sensor.mechanics.continuum import gmsh_session, mesh_surface
 from sensor.mechanics.solver import cantilever_flexibility, profile_flexibility
 
@@ -37,9 +39,9 @@ def _axes(gamma_deg):
     return u, np.array([-u[1], u[0]])           # and across it
 
 
-def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1]):
+def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1], depth_mm=BLOCK_MM[1]):
     """The substructure's outline (shapely Polygon, mm; the neck's axis crosses the block's
-    face at the origin)."""
+    face at the origin; the block ``depth_mm`` deep)."""
     from shapely.geometry import Polygon, box
     from shapely.ops import unary_union
 
@@ -48,7 +50,7 @@ def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1]):
     def strip(s0, s1, w):
         return Polygon([s0 * u + v * w / 2, s1 * u + v * w / 2, s1 * u - v * w / 2, s0 * u - v * w / 2])
 
-    (bw, bd), lw = BLOCK_MM, LINK_MM[0]
+    bw, bd, lw = BLOCK_MM[0], depth_mm, LINK_MM[0]
     # the neck's strip runs 2 t into the block and t into the link (both cover it there):
     # ending it on the link's edge left a zero-width spike in the union at some angles
     # (gamma 20 deg), which gmsh could not mesh
@@ -59,10 +61,10 @@ def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1]):
     return shape.simplify(1e-5)
 
 
-def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
+def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None, depth_mm=BLOCK_MM[1]):
     """Plane-stress compliance (3, 3) of the link's end, unit depth: [axial, transverse,
     rotation] per [axial force, transverse force, moment] (mm/N, rad/(N mm)), loads along
-    and across the neck's axis, the moment counter-clockwise."""
+    and across the neck's axis, the moment counter-clockwise; the block ``depth_mm`` deep."""
     from skfem import Basis, ElementTriP2, ElementVector, FacetBasis, LinearForm, MeshTri, asm, condense, solve
     from skfem.models.elasticity import linear_elasticity
 
@@ -78,7 +80,7 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
         s = float(np.clip(p @ u, 0.0, neck_mm))
         return float(min(h + 0.35 * max(np.linalg.norm(p - s * u) - t, 0.0), lw / 3))
 
-    xy = np.array(outline(t, neck_mm, gamma_deg, r, ll).exterior.coords)[:-1]
+    xy = np.array(outline(t, neck_mm, gamma_deg, r, ll, depth_mm).exterior.coords)[:-1]
     with gmsh_session("hinge") as gmsh:
         geo = gmsh.model.geo
         pts = [geo.addPoint(float(x), float(y), 0.0) for x, y in xy]
@@ -89,7 +91,7 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
     mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(tri.T))
     basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
     K = asm(linear_elasticity(*_lame(E_MPA, NU, plane_strain=False)), basis)
-    fixed = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] < -BLOCK_MM[1] + 1e-7, boundaries_only=True)).all()
+    fixed = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] < -depth_mm + 1e-7, boundaries_only=True)).all()
     facets = mesh.facets_satisfying(lambda x: np.abs((x[0] - end[0]) * u[0] + (x[1] - end[1]) * u[1]) < 1e-6,
                                     boundaries_only=True)
     fb = FacetBasis(mesh, basis.elem, facets=facets, intorder=4)
@@ -111,13 +113,14 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None):
     return F.T @ U
 
 
-def beam_compliance(t, neck_mm, gamma_deg, r):
+def beam_compliance(t, neck_mm, gamma_deg, r, depth_mm=BLOCK_MM[1]):
     """The beam model's compliance of the same end (see :func:`fe_compliance`)."""
     lw, ll = LINK_MM
-    ends = ((r, math.inf, gamma_deg, BLOCK_MM[1]), (r, (lw - t) / 2, 0.0, lw))  # the block's face is long
+    ends = ((r, math.inf, gamma_deg, depth_mm), (r, (lw - t) / 2, 0.0, lw))  # the block's face is long
     stations, _, length, behind, _ = hinge_profile(t, neck_mm, ends)
     # the neck leans towards +x: its acute corner, where the centroid moves, is on the right
     hinge = profile_flexibility(np.asarray(stations) * (1.0, 1.0, -1.0), 1.0, E_MPA, G_MPA)
+    hinge[0, 0] += axial_spread(t, r, depth_mm) / E_MPA  # the block is clamped depth_mm behind its face
     rest = neck_mm + ll - (length - behind)          # the link past the hinge member's end
     carry = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, rest, 1.0]])  # end loads at the member's tip
     return cantilever_flexibility(rest, lw, 1.0, E_MPA, G_MPA) + carry.T @ hinge @ carry

@@ -52,12 +52,14 @@ def test_the_flag_marks_every_dacm_the_beam_model_misses_at_full_scale():
     matter of the linear model; the limits were set on these, see the module's docstring).
     It was exact until the oblique root's coupling came into the model
     (geometry.topology.ROOT_COUPLING_PER_LEAN); since, five flagged bodies of phi2 8.9-10.6
-    deg are met, and a sixth (toggle-band-0, phi2 8.42 deg) since the members carry the
-    axial force's second-order term: on the safe side, and listed here so that a change is
-    looked at."""
+    deg are met, a sixth (toggle-band-0, phi2 8.42 deg) since the members carry the axial
+    force's second-order term, and since the hinges' axial spread and the input's contact
+    (geometry.topology.axial_spread, INPUT_CONTACT_MM) all but one (thick-20-15, flagged by
+    its A falling to 0.69 of its linear value): on the safe side, and listed here so that a
+    change is looked at."""
     rows = _dacm_rows()
     assert len(rows) >= 48
-    assert [name for name, _, _, linear in rows if not linear] == ["thick-20-15-0.9-0.6-L1.6", "thick-22-17.2-1.4-0.6"]
+    assert [name for name, _, _, linear in rows if not linear] == []
     missed, flagged_met = {}, []
     for name, design, errors, linear in rows:
         if not linear:
@@ -69,7 +71,9 @@ def test_the_flag_marks_every_dacm_the_beam_model_misses_at_full_scale():
         elif change.near_toggle and _met(errors):
             flagged_met.append(name)
     assert not missed, missed
-    assert flagged_met == ["toggle-band-0", "toggle-band-1", "toggle-band-3", "toggle-band-4", "toggle-band-5", "toggle-band-k2.2-10N"]
+    assert flagged_met == ["05-03-22-6", "03-03-28-6", "answer-proposed-10N", "answer-proposed-15N", "like-4-delrin",
+                           "toggle-band-0", "toggle-band-1", "toggle-band-3", "toggle-band-4", "toggle-band-5",
+                           "toggle-band-k2.0-10N", "toggle-band-k2.0-15N", "toggle-band-k2.2-10N", "toggle-band-k2.2-15N"]
 
 
 @pytest.mark.parametrize("k_ratio, a_ratio, phi2, near", [
