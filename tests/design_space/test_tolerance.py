@@ -79,19 +79,35 @@ def test_robust_design_keeps_its_chance_constraints_on_fresh_draws(range_N):
     assert fresh.hysteresis_fraction_p50 >= tolerance(nominal, draws=1000, seed=99).hysteresis_fraction_p50
 
 
-def test_robust_drawing_does_not_depend_on_the_reports_seed():
-    """The search reads the process off the response surface's fixed draws, not the
-    report's parts: at 5 N the reports of seeds 0 and 2 both keep the constraints at its
-    first end, so both write the same angles, their hinges at most 1 % apart (each report
-    centres the band on its own parts, every hinge scaled by one factor). (Seed 1's report
-    misses there, and the second pass on its parts moves the drawing to 32.28/21.45.) The
+@pytest.mark.parametrize("range_N", [5.0, 15.0])
+def test_robust_design_keeps_its_chance_constraints_for_the_process(range_N):
+    """``met`` covers the process, not only the report's 200 parts: on the response
+    surface's 4096 draws the robust design's band is inside +-10 % and P(stress) at most 5 %
+    (robust._process_misses finds nothing), where the nominal answer's parts miss (control:
+    the check can fail; its band sits above the range)."""
+    from sensor.design_space.robust import _process_misses
+
+    nominal, rob = robust_answer(range_N)
+    p = DesignProblem(range_N)
+    assert rob.met and not _process_misses(p, rob.design)
+    assert any("range band" in why for why in _process_misses(p, nominal))
+
+
+def test_robust_drawing_moves_with_the_seed_only_where_its_report_misses():
+    """The first pass reads the process off the response surface's fixed draws, not the
+    report's parts; where a seed's report misses at its end, the second pass moves the
+    drawing. At 5 N seed 0's report keeps the constraints at the first end (32.80/18.18,
+    median H 0.0394) and seed 2's misses there (32.80/19.97, H 0.0446: its p5 falls under
+    4.5 N on its 200 parts): both are met, for the process too, and within 15 % in H. (The
     Monte Carlo search it replaced, which read 64 of the report's parts, ended 38 % apart in
-    H at 10 N between seeds."""
+    H at 10 N between seeds.)"""
+    from sensor.design_space.robust import _process_misses
+
     nominal, rob0 = robust_answer(5.0)
     rob2 = robust(DesignProblem(5.0), nominal, seed=2)
-    assert rob0.met and rob2.met
-    assert (rob2.design.phi1_deg, rob2.design.phi2_deg) == (rob0.design.phi1_deg, rob0.design.phi2_deg)
-    assert np.allclose(rob2.design.hinge_thickness_mm, rob0.design.hinge_thickness_mm, rtol=0.01)
+    assert rob0.met and rob2.met and not _process_misses(DesignProblem(5.0), rob2.design)
+    h0, h2 = rob0.tolerance.hysteresis_fraction_p50, rob2.tolerance.hysteresis_fraction_p50
+    assert max(h0, h2) <= 1.15 * min(h0, h2), (h0, h2)
 
 
 def test_robust_answer_next_to_the_toggle_is_no_worse_than_off_it():
