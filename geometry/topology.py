@@ -332,8 +332,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     Each hinge member is the neck with its root fillets (:func:`hinge_profile`), reaching
     its root depth (:func:`root_depth_mm`) into the body it joins and into the link, with
     the axial compliance of the stress spreading into that body (:func:`axial_spread`).
-    The input force is spread over a contact ``contact_mm`` wide (mm, at most the top
-    plate's width; see :data:`INPUT_CONTACT_MM`).
+    The input force is spread over a contact ``contact_mm`` wide (mm; 0 is a point load,
+    and a quarter of it must lie inside the top hinges; see :data:`INPUT_CONTACT_MM`).
 
     The base plate is clamped. With ``input_guided`` (the default) the input port is guided
     sideways (its x is held), as the thesis' X-stage held it when it pushed the specimens
