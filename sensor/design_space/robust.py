@@ -15,9 +15,9 @@ in the drawing and the first pass does not depend on the report's seed). The yie
 prod_i Phi((t_i + offset - min_feature) / SD). Method: SLSQP with forward differences in the
 same unit box, in trust-region boxes (:func:`_search`), from the nominal answer
 (:func:`sensor.design_space.optimise.optimise`) and, where that one is next to the toggle,
-also from the answer off it (:func:`_starts`), side by side in the pool; each end is rounded inward and its tolerance
-report (a Monte Carlo of the report's draws and seed) computed, where a range band
-off-centre is centred by scaling every hinge together. Where it still misses a chance
+also from the answer off it (:func:`_starts`), side by side in the pool; each end is rounded
+inward and its tolerance report (a Monte Carlo of the report's draws and seed) computed,
+where a range band off-centre is centred by scaling every hinge together. Where it still misses a chance
 constraint on the report's parts or for the process (the surface's draws:
 :func:`_process_misses`), the search runs again from it with tighter margins
 (SEARCH_PASSES), on the same draws of the surface. The written design that misses least is
@@ -242,12 +242,7 @@ def _search(problem: DesignProblem, z_draws: np.ndarray, u0: np.ndarray, min_yie
 def _misses(problem: DesignProblem, d: Design, tol: Tolerance, min_yield: float) -> list[str]:
     """The chance constraints (and the off-toggle and domain rules) the written design ``d``
     misses on its tolerance report ``tol``, one phrase each (empty: met)."""
-    why = []
-    if tol.p_over_stress > STRESS_PROBABILITY:
-        why.append(f"P(stress > allowable) {100 * tol.p_over_stress:.1f} % > {100 * STRESS_PROBABILITY:g} %")
-    if tol.range_N_p5 < (1 - BAND) * problem.range_N or tol.range_N_p95 > (1 + BAND) * problem.range_N:
-        why.append(f"range band {tol.range_N_p5:.3g}-{tol.range_N_p95:.3g} N outside +-{100 * BAND:g} % of "
-                   f"{problem.range_N:g} N")
+    why = _chance_misses(problem, tol.range_N_p5, tol.range_N_p95, tol.p_over_stress, "", ".3g")
     if tol.yield_fraction < min_yield:
         why.append(f"yield {100 * tol.yield_fraction:.1f} % < {100 * min_yield:g} %")
     if problem.off_toggle and (miss := toggle_miss(d, *solve_designs([d], problem.travel_mm)[0])):
@@ -267,14 +262,19 @@ def _process_misses(problem: DesignProblem, d: Design) -> list[str]:
         return ["the response surface does not solve"]
     s = surface.parts(surface_draws(SURFACE_DRAWS), problem.law)
     lo, hi = np.percentile(s["range_N"], [5, 95])
-    p_stress = float(np.mean(s["utilisation"] > 1.0))
+    return _chance_misses(problem, lo, hi, float(np.mean(s["utilisation"] > 1.0)),
+                          " for the process (response surface)", ".4g")
+
+
+def _chance_misses(problem: DesignProblem, p5: float, p95: float, p_stress: float, where: str,
+                   fmt: str) -> list[str]:
+    """The phrases for P(stress) over STRESS_PROBABILITY and a range band (5th-95th
+    percentiles, N) outside +-BAND, ``where`` said after each, the band's ends in ``fmt``."""
     why = []
-    if lo < (1 - BAND) * problem.range_N or hi > (1 + BAND) * problem.range_N:
-        why.append(f"range band {lo:.4g}-{hi:.4g} N for the process (response surface) outside "
-                   f"+-{100 * BAND:g} % of {problem.range_N:g} N")
     if p_stress > STRESS_PROBABILITY:
-        why.append(f"P(stress > allowable) {100 * p_stress:.1f} % for the process (response surface) > "
-                   f"{100 * STRESS_PROBABILITY:g} %")
+        why.append(f"P(stress > allowable) {100 * p_stress:.1f} %{where} > {100 * STRESS_PROBABILITY:g} %")
+    if p5 < (1 - BAND) * problem.range_N or p95 > (1 + BAND) * problem.range_N:
+        why.append(f"range band {p5:{fmt}}-{p95:{fmt}} N{where} outside +-{100 * BAND:g} % of {problem.range_N:g} N")
     return why
 
 
