@@ -64,10 +64,11 @@ PUNCH_WIDTH_MM = INPUT_CONTACT_MM
 
 
 def punch_rule(design: Design) -> Number:
-    """The rule of a punch width (mm): positive, at most the top plate's width."""
+    """The rule of a punch width (mm): positive, at most the span between the top hinges
+    (the input pushes the plate between its supports; the beam model's contact needs less
+    than twice that, geometry.topology.build_beam_model)."""
     lay = make_layout(design)
-    return Number(0.0, 2.0 * (-float(lay.P3[0]) + design.link_width_mm), lo_open=True,
-                  unit="mm, at most the top plate's width")
+    return Number(0.0, -2.0 * float(lay.P3[0]), lo_open=True, unit="mm, at most the span between the top hinges")
 
 
 @dataclass(frozen=True, eq=False)

@@ -9,6 +9,7 @@ import pytest
 from types import SimpleNamespace
 
 from geometry.params import Material, preset
+from geometry.topology import build_beam_model
 from sensor.errors import SensorInputError, SolverError
 from sensor.mechanics.continuum import (
     PUNCH_WIDTH_MM,
@@ -20,6 +21,7 @@ from sensor.mechanics.continuum import (
     mesh_elements,
     mesh_profile,
     neck_points,
+    punch_rule,
     relative_error_pct,
     richardson,
     verify,
@@ -166,6 +168,18 @@ def test_a_wider_contact_raises_A_next_to_the_toggle_but_not_k_out():
 def test_bad_options_are_clear_errors(kwargs, fragment):
     with pytest.raises(SensorInputError, match=fragment.replace("(", r"\(")):
         verify(preset("basis"), **kwargs)
+
+
+@pytest.mark.parametrize("name", ["basis", "sample-b", "03-03-12-4"])
+def test_every_punch_the_rule_allows_has_a_beam_model(name):
+    """verify solves the beam model with the punch's width as its contact: the widest punch
+    the rule allows (the span between the top hinges) builds one, a wider one is refused
+    by the rule, not by the beam model (it once named the model's contact_mm)."""
+    d = DESIGNS[name]
+    widest = punch_rule(d).hi
+    assert build_beam_model(d, contact_mm=widest).nodes.size
+    with pytest.raises(SensorInputError, match="punch_width_mm = .*span between the top hinges"):
+        verify(d, mesh=QUICK, punch_width_mm=widest * 1.01)
 
 
 def test_a_quantity_at_zero_has_no_relative_error():
