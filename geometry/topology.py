@@ -113,11 +113,16 @@ AXIAL_SPREAD_PER_DEPTH = 1.669
 AXIAL_SPREAD_PER_FILLET = 0.1084
 #: The width (mm) of the contact the input is pushed through: the continuum reference's
 #: punch (sensor.mechanics.continuum.PUNCH_WIDTH_MM). The input force at the top plate's
-#: centre (DESIGN section 3) spreads over it. Past the contact, a load spread evenly over
-#: +-w/2 bends the plate as two point loads at +-w/4 do: its moment at x > w/2 is
-#: F/2 (x - w/4). So the plate's members start at +-w/4, carried rigidly to the centre.
-#: With a point load the beam's top plate bent 3-12 % more than the continuum's
-#: (tests/mechanics/rigid_parts_study.py, nodes at the plate's centre and ends).
+#: centre (DESIGN section 3) spreads over it: the plate's members start at +-w/4, carried
+#: rigidly to the centre (past the contact, a load spread evenly over +-w/2 has the moment
+#: of two point loads at +-w/4). With a point load the beam's top plate bent 3-12 % more
+#: than the continuum's (tests/mechanics/rigid_parts_study.py, nodes at the plate's centre
+#: and ends); a position fitted on the continuum table with the root constants came to
+#: 0.24 w. This is an account of the table, not of the plate alone: under the reference's
+#: rigid bonded punch a plate by itself is 2-4 % softer than this rule at half-spans of 4-8
+#: mm, and beam theory under an even pressure is 2-3 % softer again
+#: (tests/mechanics/plate_contact_study.py); the rule's stiffer plate offsets errors
+#: elsewhere in the bodies, and the table's two linear misses (8 mm spans) are where it does not.
 INPUT_CONTACT_MM = 0.5
 #: Stations per root fillet in a hinge's thickness profile (the arc is sampled at these
 #: points and taken linear between them: the flexibility integrals of a quarter circle
