@@ -64,11 +64,9 @@ PUNCH_WIDTH_MM = INPUT_CONTACT_MM
 
 
 def punch_rule(design: Design) -> Number:
-    """The rule of a punch width (mm): positive, at most the span between the top hinges
-    (the input pushes the plate between its supports; the beam model's contact needs less
-    than twice that, geometry.topology.build_beam_model)."""
-    lay = make_layout(design)
-    return Number(0.0, -2.0 * float(lay.P3[0]), lo_open=True, unit="mm, at most the span between the top hinges")
+    """The rule of a punch width (mm): positive, at most half the top plate's thickness, the
+    range the beam model's contact is fitted on (geometry.topology.contact_compliance)."""
+    return Number(0.0, design.plate_thickness_mm / 2, lo_open=True, unit="mm, at most half the top plate's thickness")
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,8 +13,9 @@ def test_report_writes_the_page_and_replaces_only_with_force(dacm, tmp_path):
     assert s["report"] == str(tmp_path / "basis-report.html")
     assert [Path(f["path"]).name for f in s["files"]] == [f"basis.{x}" for x in ("dxf", "stl", "step", "json", "toml")] + [
         "basis-report.html"]
-    # the basis body is a symmetric hexagon: output travel = input travel (A = 1, A_kin = 1)
-    assert abs(s["solve"]["amplification"] - 1.0) < 1e-6 and s["solve"]["A_kin"] == 1.0
+    # the basis body is a symmetric hexagon: output travel = input travel (A_kin = 1; A = 1
+    # less the input contact's compression, 0.02 %)
+    assert abs(s["solve"]["amplification"] - 1.0) < 1e-3 and s["solve"]["A_kin"] == 1.0
     assert s["verification"]["status"] == "not run"
     page = tmp_path / "basis-report.html"
     before, inode = page.read_bytes(), page.stat().st_ino

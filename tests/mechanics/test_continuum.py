@@ -173,12 +173,12 @@ def test_bad_options_are_clear_errors(kwargs, fragment):
 @pytest.mark.parametrize("name", ["basis", "sample-b", "03-03-12-4"])
 def test_every_punch_the_rule_allows_has_a_beam_model(name):
     """verify solves the beam model with the punch's width as its contact: the widest punch
-    the rule allows (the span between the top hinges) builds one, a wider one is refused
-    by the rule, not by the beam model (it once named the model's contact_mm)."""
+    the rule allows (half the top plate's thickness) builds one; a wider one is refused by
+    the rule, naming the option (it once stopped in the beam model, naming its contact_mm)."""
     d = DESIGNS[name]
     widest = punch_rule(d).hi
     assert build_beam_model(d, contact_mm=widest).nodes.size
-    with pytest.raises(SensorInputError, match="punch_width_mm = .*span between the top hinges"):
+    with pytest.raises(SensorInputError, match="punch_width_mm = .*half the top plate's thickness"):
         verify(d, mesh=QUICK, punch_width_mm=widest * 1.01)
 
 

@@ -34,10 +34,16 @@ def sample_b():
 def test_field_reproduces_the_solved_nodes(sample_b):
     """At every model node (rigid-body nodes, and member ends inside hinges and links) the
     field equals the solver's node displacement. Both are the same rigid motion or member
-    end, so only rounding separates them: 1e-9 mm against displacements of about 1 mm."""
+    end, so only rounding separates them: 1e-9 mm against displacements of about 1 mm. The
+    input point is the exception: it sinks into the plate by the contact's compression
+    (geometry.topology.contact_compliance, 3e-4 mm here), which the drawn plate does not show."""
     _, model, result, parts = sample_b
     u = displacement_field(model.nodes, parts, part_motions(parts, model), model, result)
-    np.testing.assert_allclose(u, result.deformed_nodes - model.nodes, rtol=0, atol=1e-9)
+    solved = result.deformed_nodes - model.nodes
+    plate = np.arange(len(model.nodes)) != model.input_node
+    np.testing.assert_allclose(u[plate], solved[plate], rtol=0, atol=1e-9)
+    sink = u[model.input_node, 1] - solved[model.input_node, 1]
+    assert 0 < sink < 2e-3 * np.abs(solved).max()
     # and each hinge's and link's own interpolation at both of its end nodes
     motions = part_motions(parts, model)
     for p, mo in zip(parts, motions):

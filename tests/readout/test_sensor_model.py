@@ -222,7 +222,7 @@ def test_cross_axis_of_a_symmetric_body_is_even_and_second_order(cross_basis):
 def test_cross_axis_near_the_thesis_value(cross_basis):
     """The basis body at 1 mm of imposed travel: the thesis measured 1.66 % on its delrin
     unit; within 25 % (the tolerance used against Table 6)."""
-    assert cross_basis.axial_mirror_travel_mm == pytest.approx(1.0, rel=1e-6)  # A = 1
+    assert cross_basis.axial_mirror_travel_mm == pytest.approx(1.0, rel=1e-3)  # A = 1, less the contact's compression
     assert cross_basis.ratio_pct == pytest.approx(1.66, rel=0.25)
 
 
