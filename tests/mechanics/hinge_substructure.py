@@ -61,14 +61,32 @@ def outline(t, neck_mm, gamma_deg, r, link_mm=LINK_MM[1], depth_mm=BLOCK_MM[1]):
     return shape.simplify(1e-5)
 
 
+def plane_stress_polygon(name: str, xy, size):
+    """Quadratic triangles (scikit-fem) of the polygon ``xy`` (N, 2) mm, meshed by gmsh at
+    element size ``size(x, y)`` mm: the mesh, its vector basis and the plane-stress
+    stiffness (unit depth, E_MPA, NU)."""
+    from skfem import Basis, ElementTriP2, ElementVector, MeshTri, asm
+    from skfem.models.elasticity import linear_elasticity
+
+    from sensor.mechanics.continuum import _lame
+
+    with gmsh_session(name) as gmsh:
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(float(x), float(y), 0.0) for x, y in xy]
+        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        points, tri = mesh_surface(size)
+    mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(tri.T))
+    basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
+    return mesh, basis, asm(linear_elasticity(*_lame(E_MPA, NU, plane_strain=False)), basis)
+
+
 def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None, depth_mm=BLOCK_MM[1]):
     """Plane-stress compliance (3, 3) of the link's end, unit depth: [axial, transverse,
     rotation] per [axial force, transverse force, moment] (mm/N, rad/(N mm)), loads along
     and across the neck's axis, the moment counter-clockwise; the block ``depth_mm`` deep."""
-    from skfem import Basis, ElementTriP2, ElementVector, FacetBasis, LinearForm, MeshTri, asm, condense, solve
-    from skfem.models.elasticity import linear_elasticity
-
-    from sensor.mechanics.continuum import _lame
+    from skfem import FacetBasis, LinearForm, asm, condense, solve
 
     lw, ll = LINK_MM[0], link_mm or LINK_MM[1]
     u, v = _axes(gamma_deg)
@@ -81,16 +99,7 @@ def fe_compliance(t, neck_mm, gamma_deg, r, n_across=6.0, link_mm=None, depth_mm
         return float(min(h + 0.35 * max(np.linalg.norm(p - s * u) - t, 0.0), lw / 3))
 
     xy = np.array(outline(t, neck_mm, gamma_deg, r, ll, depth_mm).exterior.coords)[:-1]
-    with gmsh_session("hinge") as gmsh:
-        geo = gmsh.model.geo
-        pts = [geo.addPoint(float(x), float(y), 0.0) for x, y in xy]
-        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
-        geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.synchronize()
-        points, tri = mesh_surface(size)
-    mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(tri.T))
-    basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
-    K = asm(linear_elasticity(*_lame(E_MPA, NU, plane_strain=False)), basis)
+    mesh, basis, K = plane_stress_polygon("hinge", xy, size)
     fixed = basis.get_dofs(mesh.facets_satisfying(lambda x: x[1] < -depth_mm + 1e-7, boundaries_only=True)).all()
     facets = mesh.facets_satisfying(lambda x: np.abs((x[0] - end[0]) * u[0] + (x[1] - end[1]) * u[1]) < 1e-6,
                                     boundaries_only=True)

@@ -33,33 +33,20 @@ import math
 import numpy as np
 
 from geometry.topology import CONTACT_START_PER_WIDTH, contact_compliance
-from sensor.mechanics.continuum import _lame, gmsh_session, mesh_surface
 from sensor.mechanics.solver import SHEAR_FORM_FACTOR
-
-E_MPA, NU = 1000.0, 0.35
-G_MPA = E_MPA / (2 * (1 + NU))
+from tests.mechanics.hinge_substructure import E_MPA, G_MPA, plane_stress_polygon
 
 
 def fe_compliance(span_mm: float, width_mm: float, depth_mm: float, h_min: float = 0.01) -> float:
     """E b x the continuum's end deflection per newton (see the module docstring)."""
-    from skfem import Basis, ElementTriP2, ElementVector, FacetBasis, LinearForm, MeshTri, asm, condense, solve
-    from skfem.models.elasticity import linear_elasticity
+    from skfem import FacetBasis, LinearForm, asm, condense, solve
 
     L, a, h = span_mm, width_mm / 2, depth_mm
 
     def size(x, y):
         return float(min(h_min + 0.3 * min(math.hypot(x - a, y - h), math.hypot(x, y - h)), h / 6))
 
-    with gmsh_session("plate") as gmsh:
-        geo = gmsh.model.geo
-        pts = [geo.addPoint(x, y, 0.0) for x, y in ((0, 0), (L, 0), (L, h), (a, h), (0, h))]
-        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
-        geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.synchronize()
-        points, tri = mesh_surface(size)
-    mesh = MeshTri(np.ascontiguousarray(points.T), np.ascontiguousarray(tri.T))
-    basis = Basis(mesh, ElementVector(ElementTriP2()), intorder=4)
-    K = asm(linear_elasticity(*_lame(E_MPA, NU, plane_strain=False)), basis)
+    mesh, basis, K = plane_stress_polygon("plate", ((0, 0), (L, 0), (L, h), (a, h), (0, h)), size)
     tol = 1e-7
     mirror = basis.get_dofs(mesh.facets_satisfying(lambda x: x[0] < tol, boundaries_only=True))
     punch = basis.get_dofs(mesh.facets_satisfying(lambda x: (x[1] > h - tol) & (x[0] < a + tol),
