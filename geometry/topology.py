@@ -218,6 +218,14 @@ def axial_spread(t_mm: float, radius_mm: float, body_mm: float) -> float:
     return max(2.0 / math.pi * math.log(ratio), 0.0)
 
 
+def input_contact_mm(design: Design) -> float:
+    """The input's contact width (mm) the beam model and the continuum reference take by
+    default: the reference's punch, :data:`INPUT_CONTACT_MM`, or half the top plate's
+    thickness on a plate thinner than twice that (the contact rule's fitted range,
+    :func:`contact_compliance`)."""
+    return min(INPUT_CONTACT_MM, design.plate_thickness_mm / 2)
+
+
 def contact_compliance(contact_mm: float, plate_mm: float) -> float:
     """E b times the compliance (dimensionless) of the input's contact, w = ``contact_mm``
     wide, on a plate ``plate_mm`` deep, per the whole input force: from the punch to the
@@ -344,7 +352,7 @@ def root_radius_mm(design: Design) -> float:
 
 
 def build_beam_model(design: Design, layout: Layout | None = None, input_guided: bool = True,
-                     contact_mm: float = INPUT_CONTACT_MM) -> BeamModel:
+                     contact_mm: float | None = None) -> BeamModel:
     """The beam model of the part as cut (``design.kerf_mm``; 0: the drawing), hinges
     numbered as in Figure 48 (see geometry.params).
 
@@ -352,7 +360,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     its root depth (:func:`root_depth_mm`) into the body it joins and into the link, with
     the axial compliance of the stress spreading into that body (:func:`axial_spread`).
     The input force is spread over a contact ``contact_mm`` wide (mm, at most half the top
-    plate's thickness; see :data:`INPUT_CONTACT_MM`): a link from the input point to the
+    plate's thickness; default :func:`input_contact_mm`, see :data:`INPUT_CONTACT_MM`): a link from the input point to the
     plate's centre line with the contact's axial compliance (:func:`contact_compliance`; its
     thickness the one that gives it), the plate's members starting a little way either side.
 
@@ -363,6 +371,7 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     microseconds: sweeps build thousands.
     """
     lay = layout or make_layout(design)
+    contact_mm = input_contact_mm(design) if contact_mm is None else contact_mm
     if not 0 < contact_mm <= design.plate_thickness_mm / 2:
         raise GeometryError(f"contact_mm = {contact_mm!r}: must be in (0, {design.plate_thickness_mm / 2:g}] mm (the "
                             "input's contact, at most half the top plate's thickness: the range its rule is fitted on)")

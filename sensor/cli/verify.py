@@ -12,7 +12,8 @@ from sensor.cli.progress import add_quiet_argument, busy
 
 MESHES = ("coarse", "default", "fine")
 #: sensor.mechanics.continuum.PUNCH_WIDTH_MM, the reference's punch (not imported here: the
-#: continuum module is heavy for ``dacm --help``; tests/cli/test_verify_cli.py checks it).
+#: continuum module is heavy for ``dacm --help``; tests/cli/test_verify_cli.py checks it);
+#: on a top plate under twice that thick, half the plate (geometry.topology.input_contact_mm).
 PUNCH_DEFAULT_MM = 0.5
 
 
@@ -43,8 +44,9 @@ def register(subparsers) -> None:
     p.add_argument("--kerf", type=float, metavar="MM",
                    help="cutting kerf: re-entrant corners rounded by a jet of this width "
                         "(default the design's kerf_mm, 0.8; 0: the drawn profile, sharp corners)")
-    p.add_argument("--punch-width", type=float, default=PUNCH_DEFAULT_MM, metavar="MM",
-                   help=f"width of the punch that pushes the input (default {PUNCH_DEFAULT_MM:g}); next to "
+    p.add_argument("--punch-width", type=float, metavar="MM",
+                   help=f"width of the punch that pushes the input, at most half the top plate's thickness "
+                        f"(default {PUNCH_DEFAULT_MM:g}, or half the plate if thinner than {2 * PUNCH_DEFAULT_MM:g}); next to "
                         "the toggle A grows with it (the contact's compliance is part of the input "
                         "travel), k_out does not")
     add_output_arguments(p, "the stress-field picture <name>-verify.png")
@@ -93,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{design.name} {out['profile']}: continuum FE ({out['mesh']['elements']} quadratic triangles, "
           f"{out['mesh']['elements_across_hinge']:g} across each hinge; input through a "
-          f"{args.punch_width:g} mm punch) against the beam model")
+          f"{out['options']['punch_width_mm']:g} mm punch) against the beam model")
     if out["options"]["nonlinear_meshes"] == 1:
         print("  nonlinear on that mesh, the coarsest of three solved linear: its mesh error is taken "
               "from the linear study")

@@ -601,7 +601,7 @@ def _newton_tl(pb: BodyProblem, u: np.ndarray, travel_mm: float, tol: float = 1e
 
 
 def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
-           nonlinear: bool = False, target_output_mm: float = 1.0, punch_width_mm: float = PUNCH_WIDTH_MM,
+           nonlinear: bool = False, target_output_mm: float = 1.0, punch_width_mm: float | None = None,
            clamp: str = "bottom edge", kerf_mm: float | None = None,
            increments: int = 4) -> ContinuumResult:
     """Solve the continuum model of a design at one mesh level (see the module docstring).
@@ -612,7 +612,9 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     a larger drawn ``root_radius_mm`` of the design rounds them with that radius instead
     (every re-entrant corner, as :func:`geometry.topology.root_radius_mm` gives the roots).
     Results are reported at the output travel ``target_output_mm`` (linear: scaled to it);
-    nonlinear results also say whether that state is stable.
+    nonlinear results also say whether that state is stable. The punch is ``punch_width_mm``
+    wide (default :func:`geometry.topology.input_contact_mm`: :data:`PUNCH_WIDTH_MM`, less on
+    a top plate under 1 mm).
     """
     n_across = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
     if n_across is None or not (math.isfinite(n_across) and n_across > 0):
@@ -622,8 +624,10 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         raise SensorInputError(f"clamp = {clamp!r}: must be one of {', '.join(CLAMPS)}")
     if not (math.isfinite(target_output_mm) and target_output_mm > 0):
         raise SensorInputError(f"target_output_mm = {target_output_mm!r}: must be a positive finite number (mm)")
+    from geometry.topology import input_contact_mm, root_radius_mm
+
+    punch_width_mm = input_contact_mm(design) if punch_width_mm is None else punch_width_mm
     punch_rule(design).check("punch_width_mm", punch_width_mm, SensorInputError)
-    from geometry.topology import root_radius_mm
 
     if kerf_mm is not None:
         FIELD_RULES["kerf_mm"].check("kerf_mm", kerf_mm, SensorInputError)
@@ -871,7 +875,7 @@ class Verification:
     errors_pct: dict
 
 
-def _beam_side(design: Design, target_output_mm: float, nonlinear: bool, punch_width_mm: float) -> dict:
+def _beam_side(design: Design, target_output_mm: float, nonlinear: bool, punch_width_mm: float | None) -> dict:
     """The beam model's values beside the FE's, its input spread over the punch's width
     (mm), or, nonlinear, ``{"unstable": why}`` when its path stops being stable before the
     target (its Newton iterations may also fail just past the bifurcation: a
@@ -914,11 +918,12 @@ def _utilisation(design: Design, peak_MPa: dict | None) -> dict:
 def verify_design(design: Design, mesh: str | float = "default", plane_strain: bool = False,
                   nonlinear: bool = False, target_output_mm: float = 1.0,
                   kerf_mm: float | None = None, clamp: str = "bottom edge",
-                  punch_width_mm: float = PUNCH_WIDTH_MM, nonlinear_meshes: int = 1) -> Verification:
+                  punch_width_mm: float | None = None, nonlinear_meshes: int = 1) -> Verification:
     """Continuum FE (three meshes, Richardson) and beam model of one design as cut with
     ``kerf_mm`` (default the design's own ``kerf_mm``; 0: the drawing), compared at
     ``target_output_mm`` (linear: both in the linear limit, scaled to it), the input pushed
-    through a punch ``punch_width_mm`` wide (see :data:`PUNCH_WIDTH_MM`).
+    through a punch ``punch_width_mm`` wide (default :func:`geometry.topology.input_contact_mm`;
+    see :data:`PUNCH_WIDTH_MM`).
 
     Nonlinear, with ``nonlinear_meshes`` = 1 (the default), the three meshes are solved
     linear and only the coarsest nonlinear: each FE value is the linear study's, times the
