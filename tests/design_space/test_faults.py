@@ -371,10 +371,12 @@ def test_a_signal_during_a_held_block_is_raised_when_it_ends():
     """A row is merged and counted under _signals_held: a Ctrl-C that arrives in the middle
     interrupts after the block, not inside it (under load a stop between merge and count
     made the message say 1600 cells while the checkpoint held 1800). In a fresh Python
-    process, whose SIGINT handler is Python's own (pytest's workers ignore SIGINT)."""
+    process given Python's own SIGINT handler (pytest's workers ignore SIGINT, and a child
+    started from one inherits that: the signal then did nothing, in two full runs of stop 56)."""
     script = """
 import signal
 from sensor.design_space.execution import _signals_held
+signal.signal(signal.SIGINT, signal.default_int_handler)
 steps = []
 try:
     with _signals_held():
