@@ -875,7 +875,7 @@ class Verification:
     errors_pct: dict
 
 
-def _beam_side(design: Design, target_output_mm: float, nonlinear: bool, punch_width_mm: float | None) -> dict:
+def _beam_side(design: Design, target_output_mm: float, nonlinear: bool, punch_width_mm: float) -> dict:
     """The beam model's values beside the FE's, its input spread over the punch's width
     (mm), or, nonlinear, ``{"unstable": why}`` when its path stops being stable before the
     target (its Newton iterations may also fail just past the bifurcation: a
@@ -936,6 +936,9 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
         raise SensorInputError(f"nonlinear_meshes = {nonlinear_meshes!r}: must be 1 or 3")
     if kerf_mm is not None:
         design = design.replace(kerf_mm=kerf_mm)
+    from geometry.topology import input_contact_mm
+
+    punch_width_mm = input_contact_mm(design) if punch_width_mm is None else punch_width_mm  # one width for both models
     one = nonlinear and nonlinear_meshes == 1
     options = dict(plane_strain=plane_strain, target_output_mm=target_output_mm, clamp=clamp,
                    punch_width_mm=punch_width_mm)
