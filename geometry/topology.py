@@ -226,6 +226,13 @@ def input_contact_mm(design: Design) -> float:
     return min(INPUT_CONTACT_MM, design.plate_thickness_mm / 2)
 
 
+def contact_rule(design: Design) -> Number:
+    """The rule of the input's contact width (mm): positive, at most half the top plate's
+    thickness, the range :func:`contact_compliance` is fitted on (the beam model's
+    ``contact_mm``, the continuum reference's punch)."""
+    return Number(0.0, design.plate_thickness_mm / 2, lo_open=True, unit="mm, at most half the top plate's thickness")
+
+
 def contact_compliance(contact_mm: float, plate_mm: float) -> float:
     """E b times the compliance (dimensionless) of the input's contact, w = ``contact_mm``
     wide, on a plate ``plate_mm`` deep, per the whole input force: from the punch to the
@@ -371,10 +378,8 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     microseconds: sweeps build thousands.
     """
     lay = layout or make_layout(design)
-    contact_mm = input_contact_mm(design) if contact_mm is None else contact_mm
-    if not 0 < contact_mm <= design.plate_thickness_mm / 2:
-        raise GeometryError(f"contact_mm = {contact_mm!r}: must be in (0, {design.plate_thickness_mm / 2:g}] mm (the "
-                            "input's contact, at most half the top plate's thickness: the range its rule is fitted on)")
+    contact_mm = contact_rule(design).check("contact_mm", input_contact_mm(design) if contact_mm is None else contact_mm,
+                                            GeometryError)
     d = design
     # scalar arithmetic on (x, y) tuples: a sweep builds thousands of models, and numpy's
     # per-call cost on 2-vectors is most of the work (same operations, same results)

@@ -60,9 +60,9 @@ def run(args: argparse.Namespace) -> int:
     from geometry.atomic import save_figure
     from geometry.checks import assert_feasible
     from geometry.params import FIELD_RULES
-    from geometry.topology import root_radius_mm
+    from geometry.topology import contact_rule, root_radius_mm
     from sensor.errors import UsageError
-    from sensor.mechanics.continuum import punch_rule, verification_to_dict, verify_design
+    from sensor.mechanics.continuum import verification_to_dict, verify_design
     from sensor.mechanics.plots import stress_field_figure
 
     if args.mesh not in MESHES:
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     design = design_from_args(args)
     if args.kerf is not None:
         design = design.replace(kerf_mm=args.kerf)
-    check_flags(args, {"target_output": travel_rule(design.height_mm), "punch_width": punch_rule(design)})
+    check_flags(args, {"target_output": travel_rule(design.height_mm), "punch_width": contact_rule(design)})
     paths = [] if args.no_plots else claim(args, [f"{design.name}-verify.png"])
     assert_feasible(design)
     with busy(f"verify {design.name}: continuum FE at three meshes", args.quiet):

@@ -39,8 +39,7 @@ from numba import njit
 
 from geometry.layout import make_layout, make_parts
 from geometry.params import FIELD_RULES, Design, cut_note
-from geometry.topology import INPUT_CONTACT_MM
-from geometry.validation import Number
+from geometry.topology import INPUT_CONTACT_MM, contact_rule
 from sensor.errors import ConvergenceError, SensorInputError, SolverError
 from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION
 
@@ -61,12 +60,6 @@ CLAMPS = ("bottom edge", "base plate")
 #: 17.4 mm span (plane strain, one run) shows why: under a 0.1 mm punch it is 2.3 % more
 #: compliant than under 0.5 mm, under 0.05 mm 0.8 % more again (elements of 0.025 mm).
 PUNCH_WIDTH_MM = INPUT_CONTACT_MM
-
-
-def punch_rule(design: Design) -> Number:
-    """The rule of a punch width (mm): positive, at most half the top plate's thickness, the
-    range the beam model's contact is fitted on (geometry.topology.contact_compliance)."""
-    return Number(0.0, design.plate_thickness_mm / 2, lo_open=True, unit="mm, at most half the top plate's thickness")
 
 
 @dataclass(frozen=True, eq=False)
@@ -627,7 +620,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     from geometry.topology import input_contact_mm, root_radius_mm
 
     punch_width_mm = input_contact_mm(design) if punch_width_mm is None else punch_width_mm
-    punch_rule(design).check("punch_width_mm", punch_width_mm, SensorInputError)
+    contact_rule(design).check("punch_width_mm", punch_width_mm, SensorInputError)
 
     if kerf_mm is not None:
         FIELD_RULES["kerf_mm"].check("kerf_mm", kerf_mm, SensorInputError)

@@ -9,7 +9,7 @@ import pytest
 from types import SimpleNamespace
 
 from geometry.params import Material, preset
-from geometry.topology import build_beam_model
+from geometry.topology import build_beam_model, contact_rule
 from sensor.errors import SensorInputError, SolverError
 from sensor.mechanics.continuum import (
     PUNCH_WIDTH_MM,
@@ -21,7 +21,6 @@ from sensor.mechanics.continuum import (
     mesh_elements,
     mesh_profile,
     neck_points,
-    punch_rule,
     relative_error_pct,
     richardson,
     verify,
@@ -176,7 +175,7 @@ def test_every_punch_the_rule_allows_has_a_beam_model(name):
     the rule allows (half the top plate's thickness) builds one; a wider one is refused by
     the rule, naming the option (it once stopped in the beam model, naming its contact_mm)."""
     d = DESIGNS[name]
-    widest = punch_rule(d).hi
+    widest = contact_rule(d).hi
     assert build_beam_model(d, contact_mm=widest).nodes.size
     with pytest.raises(SensorInputError, match="punch_width_mm = .*half the top plate's thickness"):
         verify(d, mesh=QUICK, punch_width_mm=widest * 1.01)

@@ -63,7 +63,7 @@ def test_a_contact_past_the_fitted_range_is_a_clear_error():
     d = Design()
     assert topology.contact_compliance(d.plate_thickness_mm / 2, d.plate_thickness_mm) > 0
     for bad in (0.0, d.plate_thickness_mm / 2 * 1.01, -0.5):
-        with pytest.raises(GeometryError, match=f"contact_mm = {bad!r}: must be in"):
+        with pytest.raises(GeometryError, match=f"contact_mm = {bad!r}: must be a positive finite number up to 1 "):
             topology.build_beam_model(d, contact_mm=bad)
 
 
@@ -71,12 +71,11 @@ def test_a_top_plate_under_1_mm_takes_half_its_thickness_as_the_contact():
     """The default contact is the reference's 0.5 mm punch, or half a thinner plate (the
     rule's fitted range), so such a body still solves, in the beam model and in verify."""
     from geometry.params import preset
-    from sensor.mechanics.continuum import punch_rule
     from sensor.mechanics.solver import solve
 
     thin = preset("sample-b").replace(plate_thickness_mm=0.8)
     assert topology.input_contact_mm(preset("sample-b")) == topology.INPUT_CONTACT_MM == 0.5
-    assert topology.input_contact_mm(thin) == 0.4 == punch_rule(thin).hi
+    assert topology.input_contact_mm(thin) == 0.4 == topology.contact_rule(thin).hi
     model = topology.build_beam_model(thin)
     link = model.member_name.index("input contact")   # E b x its axial compliance: length / thickness
     assert model.lengths_mm[link] / model.thickness_mm[link] == pytest.approx(topology.contact_compliance(0.4, 0.8))
