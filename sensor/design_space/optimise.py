@@ -68,6 +68,11 @@ HINGE_MAX_PER_LINK = 0.4
 #: Mirror-symmetric hinge pairs of Figure 48 (hinge numbers; DESIGN section 3).
 PAIRS = ((1, 8), (2, 7), (3, 6), (4, 5), (9, 12), (10, 11))
 BASIS_PAIRS = PAIRS[:4]
+
+
+def used_pairs(design: Design) -> tuple[tuple[int, int], ...]:
+    """The mirror pairs of ``design``'s used hinges (:data:`PAIRS`, left-hand hinge first)."""
+    return tuple(g for g in PAIRS if g[0] in design.used_hinges)
 #: The answer's range is the target within RANGE_TOLERANCE (the contract is 1 %; the
 #: search matches it to 1e-6 and the written, rounded values move it by about 1e-4).
 RANGE_TOLERANCE = 0.01

@@ -35,9 +35,14 @@ def as_cut(design: Design, z: np.ndarray, sd_mm: float, offset_mm: float = 0.0, 
     """Solve ``design`` with every hinge drawn as drawn + offset_mm + sd_mm z (z: draws x 12
     standard normal deviates) to the output travel."""
     draws = np.asarray(design.hinge_thickness_mm) + offset_mm + sd_mm * np.asarray(z)
-    n = len(design.used_hinges)
-    makeable = draws[:, :n].min(axis=1) >= design.min_feature_mm
-    designs = [design.replace(hinge_thickness_mm=tuple(float(v) for v in t)) for t in draws[makeable]]
+    ok = makeable(design, draws)
+    designs = [design.replace(hinge_thickness_mm=tuple(float(v) for v in t)) for t in draws[ok]]
     models = [build_beam_model(d) for d in designs]
     results, _ = solve_batch(models, target_output_mm=travel_mm, options=options) if models else ([], [])
-    return AsCut(draws, makeable, designs, models, results)
+    return AsCut(draws, ok, designs, models, results)
+
+
+def makeable(design: Design, thickness_mm: np.ndarray) -> np.ndarray:
+    """(draws,) mask of the parts of ``design`` with hinges ``thickness_mm`` (draws, 12)
+    that can be made: every used hinge at least ``min_feature_mm``."""
+    return np.asarray(thickness_mm)[:, :len(design.used_hinges)].min(axis=1) >= design.min_feature_mm

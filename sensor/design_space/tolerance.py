@@ -18,7 +18,7 @@ import numpy as np
 
 from geometry.params import Design
 from geometry.process import WATER_JET, Process
-from sensor.design_space.optimise import PAIRS, solve_designs
+from sensor.design_space.optimise import solve_designs, used_pairs
 from sensor.design_space.scatter import AsCut, as_cut
 from sensor.mechanics.hysteresis import DEFAULT_LAW, StrainEnergyLaw
 from sensor.mechanics.stress import stress_check
@@ -72,7 +72,7 @@ def part_statistics(cut: AsCut, law: StrainEnergyLaw = DEFAULT_LAW) -> dict[str,
 def range_sensitivity(design: Design, travel_mm: float = 1.0) -> dict[str, float]:
     """d range / d t of each mirror pair (N per 0.01 mm; both hinges together, central
     difference of +-SENSITIVITY_STEP_MM), keyed "a-b"."""
-    pairs = [g for g in PAIRS if g[0] in design.used_hinges]
+    pairs = used_pairs(design)
     designs = []
     for g in pairs:
         for sign in (1, -1):

@@ -12,30 +12,51 @@ from sensor.design_space.surrogate import mirror_of, response_surface, surface_d
 from sensor.design_space.tolerance import draws_z, part_statistics
 from sensor.mechanics.stress import hinge_stresses
 
-#: The 10 N nominal answer of the model before this module (next to the toggle, phi2 12 deg:
-#: a part thinner on one side sways, so its peak stress grows with |left - right| and about
-#: 40 % of the parts pass the allowable stress: the hardest case for a smooth surface).
-NEAR_TOGGLE = Design(phi1_deg=27.88, phi2_deg=12.0,
-                     hinge_thickness_mm=(0.475, 0.3, 0.309, 0.8, 0.8, 0.309, 0.3, 0.475, 0.3, 0.3, 0.3, 0.3))
+#: The 10 N nominal answer of the current model (next to the toggle, phi2 9.11 deg): a part
+#: thinner on one side sways and loads that side's hinges, and about 43 % of the parts pass
+#: the allowable stress (the hardest case for a smooth surface of the peak).
+STRESSED = Design(phi1_deg=32.55, phi2_deg=9.11,
+                  hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.3118, 0.3, 0.4873, 0.3, 0.3, 0.3, 0.3))
+#: The same angles drawn without mirror symmetry (every hinge moved, none mirrored).
+ASYMMETRIC = STRESSED.replace(hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.33, 0.32, 0.45, 0.3, 0.3, 0.3, 0.32))
 #: A body off the toggle (the 5 N optimum of an earlier model).
 OFF_TOGGLE = Design(phi1_deg=28.36, phi2_deg=18.0,
                     hinge_thickness_mm=(0.3, 0.3, 0.3, 0.5069, 0.5069, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3))
+#: OFF_TOGGLE with hinges 9 and 12 drawn at min_feature_mm: cut at the offset they are
+#: half an SD above it, so a part one SD thinner there cannot be made (yield about 0.47).
+THIN = OFF_TOGGLE.replace(min_feature_mm=0.28,
+                          hinge_thickness_mm=(0.3, 0.3, 0.3, 0.5069, 0.5069, 0.3, 0.3, 0.3, 0.28, 0.3, 0.3, 0.28))
 LAW = DesignProblem(5.0).law
 
 
-@pytest.mark.parametrize("design", [NEAR_TOGGLE, OFF_TOGGLE], ids=["near-toggle", "off-toggle"])
+@pytest.mark.parametrize("design", [STRESSED, ASYMMETRIC, OFF_TOGGLE, THIN],
+                         ids=["stressed", "asymmetric", "off-toggle", "thin"])
 def test_surface_reads_the_parts_as_the_monte_carlo_solves_them(design):
-    """On the same 400 draws: the range's 5th, 50th and 95th percentiles within 1.5 % (the
-    surface keeps the range's curvature in each hinge but not the cross terms; measured 0.7 %
-    at most), the median H within 2 % and P(stress > allowable) within 0.05 (of 400 parts:
-    one binomial SD at 40 % is 0.025; measured 0.03 at most)."""
+    """On the same 400 draws, over the parts that can be made (the same ones in both): the
+    range's 5th, 50th and 95th percentiles within 1.5 % (the surface keeps the range's
+    curvature in each hinge but not the cross terms; measured 1.3 % at most, on THIN's 80
+    parts), the median H within 2 %, P(stress > allowable) within 0.04 (measured 0.016 at
+    most: the draws are common, so this is the surface's error, not sampling) and the
+    utilisation's median and 95th percentile within 0.5 and 1.5 % (measured 0.15 and
+    0.9 %: the peak's cross terms, left against right, are not kept)."""
     z = draws_z(400, 11)
     mc = part_statistics(as_cut(design, z, WATER_JET.sd_mm, WATER_JET.offset_mm), LAW)
     sf = response_surface(design, WATER_JET, 1.0).parts(z, LAW)
+    assert len(sf["range_N"]) == len(mc["range_N"]) and np.isfinite(mc["range_N"]).all()
     for q in (5, 50, 95):
         assert np.percentile(sf["range_N"], q) == pytest.approx(np.percentile(mc["range_N"], q), rel=0.015), q
     assert np.median(sf["hysteresis"]) == pytest.approx(np.median(mc["hysteresis"]), rel=0.02)
-    assert np.mean(sf["utilisation"] > 1) == pytest.approx(np.mean(mc["utilisation"] > 1), abs=0.05)
+    assert np.mean(sf["utilisation"] > 1) == pytest.approx(np.mean(mc["utilisation"] > 1), abs=0.04)
+    for q, rel in ((50, 0.005), (95, 0.015)):
+        assert np.percentile(sf["utilisation"], q) == pytest.approx(np.percentile(mc["utilisation"], q), rel=rel), q
+
+
+def test_the_stressed_body_is_a_real_stress_case():
+    """Control for the test above: STRESSED has a large share of its parts over the
+    allowable stress (measured 0.45 on these draws), so the P(stress) check can fail."""
+    z = draws_z(400, 11)
+    mc = part_statistics(as_cut(STRESSED, z, WATER_JET.sd_mm, WATER_JET.offset_mm), LAW)
+    assert 0.3 < np.mean(mc["utilisation"] > 1) < 0.7
 
 
 def test_zero_scatter_gives_the_part_cut_at_the_offset():
@@ -47,22 +68,47 @@ def test_zero_scatter_gives_the_part_cut_at_the_offset():
     assert np.allclose(parts["utilisation"], one["utilisation"][0], rtol=1e-5)
 
 
-def test_a_right_hand_hinge_moves_as_its_mirror_image():
-    """The surface solves only left-hand moves: its columns for the right-hand hinges (each
-    hinge's utilisation when the twin moves) equal the central differences of direct solves
-    of the right-hand moves, to 1e-6 (the layout is mirrored exactly; solver tolerance)."""
-    s = response_surface(NEAR_TOGGLE, WATER_JET, 1.0)
-    used = list(NEAR_TOGGLE.used_hinges)
-    allow = NEAR_TOGGLE.material.allowable_stress_MPa
+def _direct_moves(design, hinge):
+    """(log range, each used hinge's utilisation) of the parts of ``design`` with ``hinge``
+    moved by +1 and -1 SD alone, solved directly."""
+    z = np.zeros((2, 12))
+    z[0, hinge - 1], z[1, hinge - 1] = 1.0, -1.0
+    cut = as_cut(design, z, WATER_JET.sd_mm, WATER_JET.offset_mm)
+    allow = design.material.allowable_stress_MPa
+    util = np.array([[hinge_stresses(m, r)[h].peak_MPa / allow for h in design.used_hinges]
+                     for m, r in zip(cut.models, cut.results)])
+    return np.log([r.input_force_N for r in cut.results]), util
+
+
+@pytest.mark.parametrize("design", [STRESSED, ASYMMETRIC], ids=["symmetric", "asymmetric"])
+def test_a_right_hand_hinge_column_is_the_direct_solves(design):
+    """The surface's columns for right-hand hinges (each hinge's utilisation, and the log
+    range, when a right-hand hinge moves) equal the central differences of direct solves of
+    the right-hand moves, to 1e-6 (solver tolerance). On the symmetric drawing they come
+    from the left-hand twins' moves mirrored (the layout is mirrored exactly); the
+    asymmetric drawing has them solved (mirroring there is 24 % off hinge 8's range slope:
+    control below; with the mirror shortcut forced on it this test fails)."""
+    s = response_surface(design, WATER_JET, 1.0)
     for right in (8, 11):
-        z = np.zeros((2, 12))
-        z[0, right - 1], z[1, right - 1] = 1.0, -1.0
-        cut = as_cut(NEAR_TOGGLE, z, WATER_JET.sd_mm, WATER_JET.offset_mm)
-        up, down = ([hinge_stresses(m, r)[h].peak_MPa / allow for h in used] for m, r in zip(cut.models, cut.results))
-        assert np.allclose(s.utilisation[1][:, right - 1], (np.array(up) - np.array(down)) / 2, atol=1e-6)
-        direct = np.log([r.input_force_N for r in cut.results])
-        assert s.log_range[1][right - 1] == pytest.approx((direct[0] - direct[1]) / 2, abs=1e-6)
-    assert mirror_of(NEAR_TOGGLE)[8] == 1 and mirror_of(Design(phi2_deg=None))[4] == 5
+        log_range, util = _direct_moves(design, right)
+        assert np.allclose(s.utilisation[1][:, right - 1], (util[0] - util[1]) / 2, atol=1e-6)
+        assert s.log_range[1][right - 1] == pytest.approx((log_range[0] - log_range[1]) / 2, abs=1e-6)
+    if design is ASYMMETRIC:   # the control: its left twin's slope is not its own
+        assert abs(s.log_range[1][0] / s.log_range[1][7] - 1) > 0.1
+    assert mirror_of(design)[8] == 1 and mirror_of(Design(phi2_deg=None))[4] == 5
+
+
+def test_a_hinge_that_cannot_be_made_thinner_is_read_one_sided():
+    """THIN's hinges 9 and 12 one SD thinner are under min_feature_mm: the surface takes
+    the forward secant there (no curvature) instead of giving up on the drawing."""
+    s = response_surface(THIN, WATER_JET, 1.0)
+    z = np.zeros((2, 12))
+    z[1, 8] = 1.0
+    cut = as_cut(THIN, z, WATER_JET.sd_mm, WATER_JET.offset_mm)
+    assert cut.makeable.all()
+    forward = np.log(cut.results[1].input_force_N / cut.results[0].input_force_N)
+    assert s.log_range[1][8] == pytest.approx(forward, abs=1e-6) and s.log_range[2][8] == 0.0
+    assert s.log_range[1][11] == pytest.approx(forward, abs=1e-6) and s.log_range[1][0] != 0.0
 
 
 def test_surface_draws_are_fixed_standard_normal_deviates():

@@ -123,6 +123,18 @@ def test_robust_answer_next_to_the_toggle_is_no_worse_than_off_it():
     assert rob.tolerance.hysteresis_fraction_p50 <= 1.01 * off.tolerance.hysteresis_fraction_p50
 
 
+def test_robust_answer_does_not_depend_on_where_the_searches_run():
+    """At 15 N the robust search runs from two starts (the nominal answer is next to the
+    toggle); on two worker processes, side by side, it writes the same design with the
+    same report as in this process (each start's search runs BLAS on one thread)."""
+    from sensor.design_space.execution import task_pool
+
+    nominal, here = robust_answer(15.0)
+    with task_pool(2) as pool:
+        there = robust(DesignProblem(15.0), nominal, pool=pool)
+    assert there.design == here.design and there.tolerance == here.tolerance and there.met == here.met
+
+
 def test_centring_brings_a_narrow_off_centre_band_inside():
     """An equal-hinge basis body (0.5 mm) asked for its drawn range: its parts come out about
     7 % stiffer (the process' +0.012 mm on 0.5 mm, cubed), so the band sits high; eight
