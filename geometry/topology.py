@@ -223,7 +223,7 @@ def input_contact_mm(design: Design) -> float:
     default: the reference's punch, :data:`INPUT_CONTACT_MM`, or half the top plate's
     thickness on a plate thinner than twice that (the contact rule's fitted range,
     :func:`contact_compliance`)."""
-    return min(INPUT_CONTACT_MM, design.plate_thickness_mm / 2)
+    return min(INPUT_CONTACT_MM, contact_rule(design).hi)
 
 
 def contact_rule(design: Design) -> Number:
@@ -378,8 +378,9 @@ def build_beam_model(design: Design, layout: Layout | None = None, input_guided:
     microseconds: sweeps build thousands.
     """
     lay = layout or make_layout(design)
-    contact_mm = contact_rule(design).check("contact_mm", input_contact_mm(design) if contact_mm is None else contact_mm,
-                                            GeometryError)
+    if contact_mm is None:
+        contact_mm = input_contact_mm(design)
+    contact_mm = contact_rule(design).check("contact_mm", contact_mm, GeometryError)
     d = design
     # scalar arithmetic on (x, y) tuples: a sweep builds thousands of models, and numpy's
     # per-call cost on 2-vectors is most of the work (same operations, same results)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geometry.params import Design
+from geometry.process import Process
 from geometry.topology import build_beam_model
 from sensor.mechanics.solver import SolverOptions, solve_batch
 
@@ -34,7 +35,7 @@ def as_cut(design: Design, z: np.ndarray, sd_mm: float, offset_mm: float = 0.0, 
            options: SolverOptions = SolverOptions()) -> AsCut:
     """Solve ``design`` with every hinge drawn as drawn + offset_mm + sd_mm z (z: draws x 12
     standard normal deviates) to the output travel."""
-    draws = np.asarray(design.hinge_thickness_mm) + offset_mm + sd_mm * np.asarray(z)
+    draws = Process(sd_mm=sd_mm, offset_mm=offset_mm).as_cut(design.hinge_thickness_mm, z)
     ok = makeable(design, draws)
     designs = [design.replace(hinge_thickness_mm=tuple(float(v) for v in t)) for t in draws[ok]]
     models = [build_beam_model(d) for d in designs]

@@ -13,40 +13,49 @@ from sensor.design_space.tolerance import draws_z, part_statistics
 from sensor.mechanics.stress import hinge_stresses
 
 #: The 10 N nominal answer of the current model (next to the toggle, phi2 9.11 deg): a part
-#: thinner on one side sways and loads that side's hinges, and about 43 % of the parts pass
-#: the allowable stress (the hardest case for a smooth surface of the peak).
+#: thinner on one side sways and loads that side's hinges, and about 45 % of the parts
+#: exceed the allowable stress (the hardest case for a smooth surface of the peak).
 STRESSED = Design(phi1_deg=32.55, phi2_deg=9.11,
                   hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.3118, 0.3, 0.4873, 0.3, 0.3, 0.3, 0.3))
 #: The same angles drawn without mirror symmetry (every hinge moved, none mirrored).
 ASYMMETRIC = STRESSED.replace(hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.33, 0.32, 0.45, 0.3, 0.3, 0.3, 0.32))
+#: The 10 N robust answer of the current model: about 5 % of its parts over the allowable
+#: stress, where the robust search reads the surface.
+ROBUST = Design(phi1_deg=23.96, phi2_deg=14.40,
+                hinge_thickness_mm=(0.8, 0.3047, 0.3728, 0.5012, 0.5012, 0.3728, 0.3047, 0.8, 0.4488, 0.3001, 0.3001, 0.4488))
 #: A body off the toggle (the 5 N optimum of an earlier model).
 OFF_TOGGLE = Design(phi1_deg=28.36, phi2_deg=18.0,
                     hinge_thickness_mm=(0.3, 0.3, 0.3, 0.5069, 0.5069, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3))
 #: OFF_TOGGLE with hinges 9 and 12 drawn at min_feature_mm: cut at the offset they are
-#: half an SD above it, so a part one SD thinner there cannot be made (yield about 0.47).
+#: half an SD above it, so a part one SD thinner there cannot be made (yield about 0.20:
+#: 0.47 from hinges 9 and 12, 0.90 from each other 0.3 mm hinge).
 THIN = OFF_TOGGLE.replace(min_feature_mm=0.28,
                           hinge_thickness_mm=(0.3, 0.3, 0.3, 0.5069, 0.5069, 0.3, 0.3, 0.3, 0.28, 0.3, 0.3, 0.28))
 LAW = DesignProblem(5.0).law
 
 
-@pytest.mark.parametrize("design", [STRESSED, ASYMMETRIC, OFF_TOGGLE, THIN],
-                         ids=["stressed", "asymmetric", "off-toggle", "thin"])
+@pytest.mark.parametrize("design", [STRESSED, ASYMMETRIC, ROBUST, OFF_TOGGLE, THIN],
+                         ids=["stressed", "asymmetric", "robust", "off-toggle", "thin"])
 def test_surface_reads_the_parts_as_the_monte_carlo_solves_them(design):
     """On the same 400 draws, over the parts that can be made (the same ones in both): the
     range's 5th, 50th and 95th percentiles within 1.5 % (the surface keeps the range's
-    curvature in each hinge but not the cross terms; measured 1.3 % at most, on THIN's 80
-    parts), the median H within 2 %, P(stress > allowable) within 0.04 (measured 0.016 at
-    most: the draws are common, so this is the surface's error, not sampling) and the
-    utilisation's median and 95th percentile within 0.5 and 1.5 % (measured 0.15 and
-    0.9 %: the peak's cross terms, left against right, are not kept)."""
+    curvature in each hinge but not the cross terms; measured 0.5 % at most), 2 % on THIN
+    (no curvature in hinges 9 and 12, read one-sided; measured 1.3 % on its 80 parts), the
+    median H within 2 %, P(stress > allowable) within 0.04 (measured 0.016 at most: the
+    draws are common, so this is the surface's error, not sampling), 0.01 on ROBUST, where
+    the search reads it (measured 0.003), and the utilisation's median and 95th percentile
+    within 0.5 and 1.5 % (measured 0.15 and 0.9 %: the peak's cross terms, left against
+    right, are not kept)."""
     z = draws_z(400, 11)
     mc = part_statistics(as_cut(design, z, WATER_JET.sd_mm, WATER_JET.offset_mm), LAW)
     sf = response_surface(design, WATER_JET, 1.0).parts(z, LAW)
     assert len(sf["range_N"]) == len(mc["range_N"]) and np.isfinite(mc["range_N"]).all()
     for q in (5, 50, 95):
-        assert np.percentile(sf["range_N"], q) == pytest.approx(np.percentile(mc["range_N"], q), rel=0.015), q
+        assert np.percentile(sf["range_N"], q) == pytest.approx(np.percentile(mc["range_N"], q),
+                                                               rel=0.02 if design is THIN else 0.015), q
     assert np.median(sf["hysteresis"]) == pytest.approx(np.median(mc["hysteresis"]), rel=0.02)
-    assert np.mean(sf["utilisation"] > 1) == pytest.approx(np.mean(mc["utilisation"] > 1), abs=0.04)
+    p_tolerance = 0.01 if design is ROBUST else 0.04
+    assert np.mean(sf["utilisation"] > 1) == pytest.approx(np.mean(mc["utilisation"] > 1), abs=p_tolerance)
     for q, rel in ((50, 0.005), (95, 0.015)):
         assert np.percentile(sf["utilisation"], q) == pytest.approx(np.percentile(mc["utilisation"], q), rel=rel), q
 
@@ -84,15 +93,18 @@ def _direct_moves(design, hinge):
 def test_a_right_hand_hinge_column_is_the_direct_solves(design):
     """The surface's columns for right-hand hinges (each hinge's utilisation, and the log
     range, when a right-hand hinge moves) equal the central differences of direct solves of
-    the right-hand moves, to 1e-6 (solver tolerance). On the symmetric drawing they come
+    the right-hand moves, to 1e-6 (solver tolerance), and so do their curvatures. On the symmetric drawing they come
     from the left-hand twins' moves mirrored (the layout is mirrored exactly); the
     asymmetric drawing has them solved (mirroring there is 24 % off hinge 8's range slope:
     control below; with the mirror shortcut forced on it this test fails)."""
     s = response_surface(design, WATER_JET, 1.0)
     for right in (8, 11):
         log_range, util = _direct_moves(design, right)
+        u0 = s.utilisation[0]
         assert np.allclose(s.utilisation[1][:, right - 1], (util[0] - util[1]) / 2, atol=1e-6)
+        assert np.allclose(s.utilisation[2][:, right - 1], util[0] - 2 * u0 + util[1], atol=1e-6)
         assert s.log_range[1][right - 1] == pytest.approx((log_range[0] - log_range[1]) / 2, abs=1e-6)
+        assert s.log_range[2][right - 1] == pytest.approx(log_range[0] - 2 * s.log_range[0] + log_range[1], abs=1e-6)
     if design is ASYMMETRIC:   # the control: its left twin's slope is not its own
         assert abs(s.log_range[1][0] / s.log_range[1][7] - 1) > 0.1
     assert mirror_of(design)[8] == 1 and mirror_of(Design(phi2_deg=None))[4] == 5
