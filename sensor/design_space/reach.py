@@ -12,8 +12,10 @@ design search (:mod:`sensor.design_space.optimise`) minimises (maximises) log ra
 to the stress utilisation <= 1 - STRESS_SLACK, the hysteresis law's domain (H < H_LIMIT) and
 the angle domain. The ends are the extremes of every feasible body seen, the scans included,
 so they are never inside a feasible body the grid holds (tests/design_space/test_reach.py
-holds them against a dense scan of equal-hinge bodies at every thickness). A family's bodies
-are found once per process (:func:`feasible_bodies`).
+holds them against a dense scan of equal-hinge bodies at every thickness; a one-off random
+check, stop 57: 30 000 proposed bodies drawn uniformly in the unit box, half of them with
+the hinges biased thick, reached 1.56-28.3 N where feasible, inside the reach's 1.029-36.24
+N). A family's bodies are found once per process (:func:`feasible_bodies`).
 """
 
 from __future__ import annotations
