@@ -110,8 +110,9 @@ def response_surface(design: Design, process: Process, travel_mm: float) -> Resp
     """The response surface of ``design``'s parts cut by ``process``, solved to the output
     travel (mm); None where the part cut at the offset cannot be made, or a part of it does
     not solve (the search then reads a flat penalty: a part one SD thinner that can be cut
-    but does not solve is taken as a fault of the drawing, not read one-sided). A mirror-symmetric drawing moves its left-hand hinges only (a right-hand
-    move is its twin's mirror image); any other moves every used hinge."""
+    but does not solve is taken as a fault of the drawing, not read one-sided). A
+    mirror-symmetric drawing moves its left-hand hinges only (a right-hand move is its
+    twin's mirror image); any other moves every used hinge."""
     t = design.hinge_thickness_mm
     pairs = used_pairs(design)
     mirror = mirror_of(design)

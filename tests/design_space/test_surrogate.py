@@ -18,7 +18,8 @@ from sensor.mechanics.stress import hinge_stresses
 STRESSED = Design(phi1_deg=32.55, phi2_deg=9.11,
                   hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.3118, 0.3, 0.4873, 0.3, 0.3, 0.3, 0.3))
 #: The same angles drawn without mirror symmetry (every hinge moved, none mirrored).
-ASYMMETRIC = STRESSED.replace(hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.33, 0.32, 0.45, 0.3, 0.3, 0.3, 0.32))
+ASYMMETRIC = STRESSED.replace(
+    hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.33, 0.32, 0.45, 0.3, 0.3, 0.3, 0.32))
 #: The 10 N robust answer of the current model: about 5 % of its parts over the allowable
 #: stress, where the robust search reads the surface.
 ROBUST = Design(phi1_deg=23.96, phi2_deg=14.40,
