@@ -23,7 +23,8 @@ ASYMMETRIC = STRESSED.replace(
 #: The 10 N robust answer of the current model: about 5 % of its parts over the allowable
 #: stress, where the robust search reads the surface.
 ROBUST = Design(phi1_deg=23.96, phi2_deg=14.40,
-                hinge_thickness_mm=(0.8, 0.3047, 0.3728, 0.5012, 0.5012, 0.3728, 0.3047, 0.8, 0.4488, 0.3001, 0.3001, 0.4488))
+                hinge_thickness_mm=(0.8, 0.3047, 0.3728, 0.5012, 0.5012, 0.3728, 0.3047, 0.8,
+                                    0.4488, 0.3001, 0.3001, 0.4488))
 #: A body off the toggle (the 5 N optimum of an earlier model).
 OFF_TOGGLE = Design(phi1_deg=28.36, phi2_deg=18.0,
                     hinge_thickness_mm=(0.3, 0.3, 0.3, 0.5069, 0.5069, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.3))
