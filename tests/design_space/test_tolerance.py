@@ -126,7 +126,9 @@ def test_robust_answer_next_to_the_toggle_is_no_worse_than_off_it():
 def test_robust_answer_does_not_depend_on_where_the_searches_run():
     """At 15 N the robust search runs from two starts (the nominal answer is next to the
     toggle); on two worker processes, side by side, it writes the same design with the
-    same report as in this process (each start's search runs BLAS on one thread)."""
+    same report as in this process (each start's search runs BLAS on one thread). On a
+    machine of one core the pool is this process (execution.local_workers caps it), and
+    this test checks nothing more than the others."""
     from sensor.design_space.execution import task_pool
 
     nominal, here = robust_answer(15.0)
