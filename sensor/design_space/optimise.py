@@ -74,6 +74,7 @@ def used_pairs(design: Design) -> tuple[tuple[int, int], ...]:
     """The mirror pairs of ``design``'s used hinges (:data:`PAIRS`, left-hand hinge first)."""
     return tuple(g for g in PAIRS if g[0] in design.used_hinges)
 
+
 #: The answer's range is the target within RANGE_TOLERANCE (the contract is 1 %; the
 #: search matches it to 1e-6 and the written, rounded values move it by about 1e-4).
 RANGE_TOLERANCE = 0.01

@@ -68,9 +68,10 @@ STRESS_PROBABILITY, BAND, MIN_YIELD = 0.05, 0.10, 0.9
 #: "For the process" is judged on the same surface (:func:`_process_misses`), which is
 #: within 0.9 % of solved parts on the range percentiles, and on P(stress) within 0.01
 #: where it is near 5 % (the robust answers, 200 common draws) and 0.016 where it is 45 %
-#: (the 10 N nominal answer, 400; one-off runs, stop 57): more than the margins below. Margins of 0.095 and 0.045 (to
-#: cover the surface's error of stop 54, 0.7 % and 0.03) trapped the search: at 5 N it
-#: ended at median H 0.0658, against 0.0427 with these (one-off runs).
+#: (the 10 N nominal answer, 400; one-off runs, stop 57): more than the margins below.
+#: Margins of 0.095 and 0.045 (to cover the surface's error of stop 54, 0.7 % and 0.03)
+#: trapped the search: at 5 N it ended at median H 0.0658, against 0.0427 with these
+#: (one-off runs).
 SURFACE_DRAWS, SEARCH_BAND, SEARCH_STRESS_PROBABILITY, ITERATIONS = 4096, 0.0975, 0.0475, 30
 #: The search's trust region (:func:`_search`): boxes of this half-width in the unit box,
 #: at most this many of them, each at most ITERATIONS SLSQP iterations.

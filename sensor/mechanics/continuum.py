@@ -39,7 +39,7 @@ from numba import njit
 
 from geometry.layout import make_layout, make_parts
 from geometry.params import FIELD_RULES, Design, cut_note
-from geometry.topology import INPUT_CONTACT_MM, contact_rule
+from geometry.topology import INPUT_CONTACT_MM, build_beam_model, contact_rule, input_contact_mm, root_radius_mm
 from sensor.errors import ConvergenceError, SensorInputError, SolverError
 from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION
 
@@ -477,7 +477,6 @@ def neck_points(design: Design) -> dict[int, np.ndarray]:
     :func:`sensor.mechanics.stress.hinge_stresses` takes them (the beam model's
     ``neck_mm``, past the root fillets of the part as cut, the design's ``kerf_mm``; the
     middle station when the neck is shorter than 2 t)."""
-    from geometry.topology import build_beam_model
 
     model = build_beam_model(design)
     span = {int(model.hinge_number[i]): (model.nodes[model.member_nodes[i, 0]], model.neck_mm[i])
@@ -617,7 +616,6 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
         raise SensorInputError(f"clamp = {clamp!r}: must be one of {', '.join(CLAMPS)}")
     if not (math.isfinite(target_output_mm) and target_output_mm > 0):
         raise SensorInputError(f"target_output_mm = {target_output_mm!r}: must be a positive finite number (mm)")
-    from geometry.topology import input_contact_mm, root_radius_mm
 
     punch_width_mm = input_contact_mm(design) if punch_width_mm is None else punch_width_mm
     contact_rule(design).check("punch_width_mm", punch_width_mm, SensorInputError)
@@ -873,7 +871,6 @@ def _beam_side(design: Design, target_output_mm: float, nonlinear: bool, punch_w
     (mm), or, nonlinear, ``{"unstable": why}`` when its path stops being stable before the
     target (its Newton iterations may also fail just past the bifurcation: a
     ConvergenceError)."""
-    from geometry.topology import build_beam_model
     from sensor.errors import InstabilityError
     from sensor.mechanics.solver import solve
     from sensor.mechanics.stress import hinge_stresses
@@ -929,7 +926,6 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
         raise SensorInputError(f"nonlinear_meshes = {nonlinear_meshes!r}: must be 1 or 3")
     if kerf_mm is not None:
         design = design.replace(kerf_mm=kerf_mm)
-    from geometry.topology import input_contact_mm
 
     punch_width_mm = input_contact_mm(design) if punch_width_mm is None else punch_width_mm  # one width for both models
     one = nonlinear and nonlinear_meshes == 1
@@ -947,7 +943,6 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
         fe_summary = _transferred(fe_summary, _fe_fields(runs[0], knees[0]),
                                   _fe_fields(fe, knee_motion_fe(design, fe)))
     # the fillets' peak converges; at sharp roots it is singular: no verdict
-    from geometry.topology import root_radius_mm
 
     fe_summary.update(_utilisation(design, fe_summary["hinge_peak_stress_MPa"] if root_radius_mm(design) > 0 else None))
     beam = _beam_side(design, target_output_mm, nonlinear, punch_width_mm)
