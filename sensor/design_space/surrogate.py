@@ -173,8 +173,12 @@ def smooth_percentile(values: np.ndarray, weights: np.ndarray, q: float) -> floa
     size: Akinshin, arXiv:2304.07265, 2023): a Beta-weighted mean of every order statistic,
     smooth in the values and the weights, where np.percentile jumps as one value passes
     another or a weight changes."""
+    w = np.asarray(weights, dtype=float)
+    if len(w) == 0 or w.min() < 0 or not w.sum() > 0:
+        raise ValueError(f"weights: {len(w)} weights, sum {w.sum():g}, least {w.min() if len(w) else 0:g}: "
+                         "must be at least one, none negative, and sum above 0")
     order = np.argsort(values)
-    x, w = np.asarray(values)[order], np.asarray(weights, dtype=float)[order]
+    x, w = np.asarray(values)[order], w[order] / w.max()
     n = w.sum() ** 2 / np.dot(w, w)
     p = q / 100.0
     edges = betainc(p * (n + 1), (1 - p) * (n + 1), np.clip(np.concatenate([[0.0], np.cumsum(w)]) / w.sum(), 0, 1))
