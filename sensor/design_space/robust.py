@@ -33,7 +33,7 @@ With sample percentiles (np.percentile over the parts that can be made) and a ph
 the deepest point inside the constraints, the search ran out its boxes at the iteration
 limit and where it ended hung on its start: the 5 N nominal answer with phi2 one quantum
 (0.01 deg) off ended at median H 0.0575 or 0.0397 against 0.0419 (stop 57). With the
-smooth reading and the elastic phase (stop 58), all three end at 0.0377-0.0378
+smooth reading and the elastic phase (stop 58), all three end at 0.0377-0.0379
 (tests/design_space/test_tolerance.py checks it).
 
 The Monte Carlo search this replaced (64 of the report's parts a candidate) ended on the
