@@ -157,9 +157,9 @@ def test_centring_brings_a_narrow_off_centre_band_inside():
     7 % stiffer (the process' +0.012 mm on 0.5 mm, cubed), so the band sits high; eight
     hinges of 0.5 mm with SD 0.025 mm make it about 1.19 wide (p95/p5), inside the allowed
     1.1/0.9 = 1.22, so centring alone must bring it inside, every hinge scaled by one
-    factor (their ratios kept within the written 0.1 um)."""
+    factor (their ratios kept within the written 0.1 um), for the process too."""
     from sensor.design_space.optimise import solve_designs, written
-    from sensor.design_space.robust import _centred, _violation
+    from sensor.design_space.robust import _centred, _process_violation, _violation
 
     body = Design(phi1_deg=30.0, phi2_deg=None, hinge_thickness_mm=(0.5,) * 12)
     _, r = solve_designs([body], 1.0)[0]
@@ -167,7 +167,8 @@ def test_centring_brings_a_narrow_off_centre_band_inside():
     d = written(p, body, "off-centre")
     tol = tolerance(d)
     assert _violation(p, tol) > 0 and tol.range_N_p95 / tol.range_N_p5 < 1.1 / 0.9
-    centred, ctol = _centred(p, d, tol, 200, 0, "centred")
+    centred, ctol, read = _centred(p, d, tol, 200, 0, "centred")
     assert _violation(p, ctol) <= 0, (ctol.range_N_p5, ctol.range_N_p95, ctol.p_over_stress)
+    assert _process_violation(p, read) <= 0, read
     t = np.array(centred.used_thickness_mm)
     assert np.ptp(t) <= 2e-4 and t[0] < 0.5
