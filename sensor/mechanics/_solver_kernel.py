@@ -84,16 +84,18 @@ def element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, K, Bm, KB
     # uniform member L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30; Bw holds each member's p), and the
     # axial force n changes the bending stiffness at second order too: strain energy
     # n^2 (c11 t1^2 + c12 t1 t2 + c22 t2^2) (Bw[3:]; -L^3 (11, -13, 11) / 12600 EI
-    # for a uniform member, the n^2 term of the stability functions)
+    # for a uniform member, the n^2 term of the stability functions), with n^2 (d1 t1 + d2 t2)
+    # where an oblique root's centroid leaves the chord (Bw[6:]; zero on a uniform member)
     p11, p12, p22 = Bw[k, 0], Bw[k, 1], Bw[k, 2]
     c11, c12, c22 = Bw[k, 3], Bw[k, 4], Bw[k, 5]
+    d1, d2 = Bw[k, 6], Bw[k, 7]
     e0 = stretch + p11 * t1 * t1 + p12 * t1 * t2 + p22 * t2 * t2
     kn = Kn[k]
     n = kn[0, 0] * e0 + kn[0, 1] * t1 + kn[0, 2] * t2
     m1 = kn[1, 0] * e0 + kn[1, 1] * t1 + kn[1, 2] * t2
     m2 = kn[2, 0] * e0 + kn[2, 1] * t1 + kn[2, 2] * t2
-    g = c11 * t1 * t1 + c12 * t1 * t2 + c22 * t2 * t2
-    g1, g2 = 2 * c11 * t1 + c12 * t2, c12 * t1 + 2 * c22 * t2
+    g = c11 * t1 * t1 + c12 * t1 * t2 + c22 * t2 * t2 + d1 * t1 + d2 * t2
+    g1, g2 = 2 * c11 * t1 + c12 * t2 + d1, c12 * t1 + 2 * c22 * t2 + d2
     ng2 = 2 * n * g
     q0 = n + ng2 * kn[0, 0]
     q1 = m1 + ng2 * kn[0, 1] + n * n * g1

@@ -22,10 +22,11 @@ How the thesis' method maps onto the code:
   element per hinge or link is enough (checked within 0.3 % against an independent
   32-segment geometrically exact frame model on the presets; at 1 mm next to the toggle,
   within 0.2 point of k_out of the same model split into 8 on toggle-band-0 and the 10 and
-  15 N design answers, 0.6 on like-4 of the continuum table; half of like-4's comes from the
-  oblique roots' centroid offset e, which the bowing and second-order integrals leave out:
-  with e = 0 the split changes it 0.3 point, as a uniform hinge's. Splitting every hinge in
-  two costs 41 % of a batch solve; stop 57, one-off).
+  15 N design answers, 0.4 on like-4 of the continuum table, whose oblique roots put the
+  hinge's centroid e off its chord: the section's moment is then a + b s + N (w + e), and
+  the second-order term carries e too (profile_bowing's d1, d2; like-4's A against the frame
+  model at 1 mm -0.80 -> -0.39 %). Splitting every hinge in two costs 41 % of a batch solve;
+  stop 57, one-off).
 * Figure 47: the load is applied in increments and the geometry updated after each; the
   run stops when the output port reaches the target travel (the increments are taken in
   output travel, so the target is met exactly) or the input force reaches a target. Newton
@@ -160,7 +161,7 @@ _BOW_SUBSTEPS = 16
 
 
 def profile_bowing(stations):
-    """Bowing and second-order coefficients (..., 6) of members whose thickness varies along
+    """Bowing and second-order coefficients (..., 8) of members whose thickness varies along
     them, from the deflected shape under end moments (curvature M(s) / EI(s) with M linear in
     s, eqs 80-82), so a neck between stiff fillets bends where it is thin:
 
@@ -175,14 +176,19 @@ def profile_bowing(stations):
       weighted projections onto a + b s: the moments of the first-order change of the shape
       under N (the beam-column of Timoshenko & Gere, Theory of Elastic Stability, 1.9); for
       a uniform member -L^3 (11, -13, 11) / 12600 EI, the N^2 term of the stability
-      functions' series.
+      functions' series;
+    * d1, d2 (mm^3, to be divided by E b / 12): where the stations carry a third column, the
+      centroid offset e (:func:`profile_flexibility`; an oblique root's centroid leaves the
+      chord), the section's moment is a + b s + N (w + e), and the second-order energy gains
+      N^2 (d1 theta_a + d2 theta_b): d1 = -int m_a r_e ds / EI, d2 = -int m_b r_e ds / EI,
+      r_e being e less its (1 / EI)-weighted projection onto a + b s. Zero without e.
     """
     coarse, fine = (_bowing_integrals(stations, n) for n in (_BOW_SUBSTEPS, 2 * _BOW_SUBSTEPS))
     return (4 * fine - coarse) / 3
 
 
 def _bowing_integrals(stations, substeps):
-    """:func:`profile_bowing`'s six integrals by the midpoint rule, ``substeps`` a segment."""
+    """:func:`profile_bowing`'s eight integrals by the midpoint rule, ``substeps`` a segment."""
     st = np.asarray(stations, dtype=float)
     s, t = st[..., 0], st[..., 1]
     L = s[..., -1:]
@@ -214,9 +220,14 @@ def _bowing_integrals(stations, substeps):
 
     pa, pb = slope(1.0, 0.0), slope(0.0, 1.0)
     ma, mb = (residual_moment(np.cumsum(p * ds, -1) - p * ds / 2) for p in (pa, pb))
+    if st.shape[-1] > 2:  # the centroid offset's moment arm, N e
+        e = st[..., 2]
+        re = residual_moment((e[..., :-1, None] + np.diff(e, axis=-1)[..., None] * frac).reshape(x.shape))
+    else:
+        re = np.zeros_like(x)
     return np.stack([0.5 * (pa * pa * ds).sum(-1), (pa * pb * ds).sum(-1), 0.5 * (pb * pb * ds).sum(-1),
-                     -0.5 * (ma * ma * flex).sum(-1), -(ma * mb * flex).sum(-1), -0.5 * (mb * mb * flex).sum(-1)],
-                    axis=-1)
+                     -0.5 * (ma * ma * flex).sum(-1), -(ma * mb * flex).sum(-1), -0.5 * (mb * mb * flex).sum(-1),
+                     -(ma * re * flex).sum(-1), -(mb * re * flex).sum(-1)], axis=-1)
 
 
 def natural_stiffness(L, t, b, E, G, flexibility=None):
@@ -370,7 +381,7 @@ class _Batch:
     d_out: np.ndarray    # (B, 2) output travel direction
     d_in: np.ndarray     # (B, 2)
     dof_weight: np.ndarray  # (B, n_dof) 1 on forces, 1 / model size on moments (residual norm)
-    bow: np.ndarray      # (B, e, 6) bowing and second-order coefficients (profile_bowing)
+    bow: np.ndarray      # (B, e, 8) bowing and second-order coefficients (profile_bowing)
 
     @property
     def kernel_args(self) -> tuple:
@@ -401,7 +412,7 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
 
 
 def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
-    """Tip flexibility (B, e, 3, 3) and bowing and second-order coefficients (B, e, 6) of the compliant
+    """Tip flexibility (B, e, 3, 3) and bowing and second-order coefficients (B, e, 8) of the compliant
     members: uniform ones in closed form, those with a thickness profile (hinges with root
     fillets) from :func:`_profile_integrals` and :func:`profile_bowing`,
     all of a batch in one call. The profiles of one member stack across the batch; their
@@ -409,7 +420,8 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
     C = cantilever_flexibility(L0, t, b, E, G)
     EI = E * b * t**3 / 12.0
     bow = np.concatenate([L0[..., None] * np.array([2.0, -1.0, 2.0]) / 30.0,
-                          -(L0**3 / EI)[..., None] * np.array([11.0, -13.0, 11.0]) / 12600.0], axis=-1)
+                          -(L0**3 / EI)[..., None] * np.array([11.0, -13.0, 11.0]) / 12600.0,
+                          np.zeros(L0.shape + (2,))], axis=-1)
     first = models[0].profile_mm
     cols = [j for j, k in enumerate(topo.flex) if first[k] is not None]
     if cols:
@@ -429,17 +441,18 @@ def _profiled_sections(members, cols, models, L0, b, E, G, C, bow) -> None:
     scale = (L0[:, cols] / np.array([[m.profile_mm[k][-1, 0] for k in members] for m in models]))
     C[:, cols] = _flexibility_of(per[..., [0, 1, 2, 3, 7, 8, 9]], b[:, cols], E, G, scale)
     bow[:, cols, :3] = per[..., 4:7] * scale[..., None]
-    bow[:, cols, 3:] = per[..., 10:13] * (12.0 / (E * b[:, cols]) * scale**3)[..., None]
+    bow[:, cols, 3:6] = per[..., 10:13] * (12.0 / (E * b[:, cols]) * scale**3)[..., None]
+    bow[:, cols, 6:] = per[..., 13:] * (12.0 / (E * b[:, cols]) * scale**2)[..., None]
 
 
 _SECTIONS: dict = {}
-_N_SECTION = 13
+_N_SECTION = 15
 
 
 def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
-    """(n, 13): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
+    """(n, 15): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
     int (L-s)^2 ds/t^3, bowing p11, p12, p22, int e^2 ds/t^3, int e (L-s) ds/t^3,
-    int e ds/t^3, second-order c11, c12, c22) of :func:`_profile_integrals` and :func:`profile_bowing`, cached by its
+    int e ds/t^3, second-order c11, c12, c22, d1, d2) of :func:`_profile_integrals` and :func:`profile_bowing`, cached by its
     shape and bytes; the profiles not cached yet
     (every part of a Monte Carlo draw is new) are integrated together, one batch per shape
     of their station arrays."""

@@ -38,29 +38,45 @@ def chain_model(points, t, b=1.0, kinds=None, supports=((0, CLAMP),), inp=None, 
 
 
 def beam_column_energy(stations, N, theta_a, theta_b, b=1.0):
-    """Bending energy (N mm) of a member of varying thickness (stations of s, t; linear between
-    them) under an axial force N, ends held on the chord and turned by theta_a, theta_b:
-    scipy's boundary-value solver on (EI w'')'' = N w'' (w, w', M = EI w'', M'), then
-    1/2 int M^2 / EI + N/2 int w'^2 (the energy whose minimum the member's stiffness is)."""
+    """Bending energy (N mm) of a member of varying thickness (stations of s, t and, if given,
+    the centroid offset e; linear between them) under an axial force N along its chord, ends
+    held on the chord and turned by theta_a, theta_b: scipy's boundary-value solver on
+    EI w'' = M, M = a + b s + N (w + e) (a and b the unknown end loads), then
+    1/2 int M^2 / EI + N/2 int w'^2 - N int e w'' (the energy whose stationary value under
+    the dead axial load the member's stiffness is; its Euler equation is that M)."""
     from scipy.integrate import solve_bvp, trapezoid
 
     st = np.asarray(stations, float)
+    e_of = st[:, 2] if st.shape[1] > 2 else np.zeros(len(st))
 
     def EI(s):
         return E * b * np.interp(s, st[:, 0], st[:, 1]) ** 3 / 12
 
-    def rhs(s, y):
-        return np.vstack([y[1], y[2] / EI(s), y[3], N * y[2] / EI(s)])
+    def moment(s, w, p):
+        return p[0] + p[1] * s + N * (w + np.interp(s, st[:, 0], e_of))
 
-    def bc(ya, yb):
+    def rhs(s, y, p):
+        return np.vstack([y[1], moment(s, y[0], p) / EI(s)])
+
+    def bc(ya, yb, p):
         return np.array([ya[0], ya[1] - theta_a, yb[0], yb[1] - theta_b])
 
-    s = np.linspace(0, st[-1, 0], 401)
-    sol = solve_bvp(rhs, bc, s, np.zeros((4, s.size)), tol=1e-8, max_nodes=100000)
+    s = np.linspace(0, st[-1, 0], 801)
+    sol = solve_bvp(rhs, bc, s, np.zeros((2, s.size)), p=np.zeros(2), tol=1e-10, max_nodes=200000)
     assert sol.success
-    s = np.linspace(0, st[-1, 0], 40001)
-    w1, M = sol.sol(s)[1], sol.sol(s)[2]
-    return trapezoid(0.5 * M**2 / EI(s) + 0.5 * N * w1**2, s)
+    s = np.linspace(0, st[-1, 0], 60001)
+    (w, w1), M = sol.sol(s), moment(s, sol.sol(s)[0], sol.p)
+    return trapezoid(0.5 * M**2 / EI(s) + 0.5 * N * w1**2 - N * np.interp(s, st[:, 0], e_of) * M / EI(s), s)
+
+
+def axial_force_series(stations, theta_a, theta_b):
+    """The first and second coefficients of beam_column_energy's expansion in N (central
+    differences at N = +-0.2 and +-0.4 N, Richardson-combined so the N^3 and N^4 terms
+    cancel)."""
+    U = {N: beam_column_energy(stations, N, theta_a, theta_b) for N in (-0.4, -0.2, 0.0, 0.2, 0.4)}
+    first = (4 * (U[0.2] - U[-0.2]) / 0.4 - (U[0.4] - U[-0.4]) / 0.8) / 3
+    second = (4 * (U[0.2] + U[-0.2] - 2 * U[0.0]) / 0.04 - (U[0.4] + U[-0.4] - 2 * U[0.0]) / 0.16) / 3 / 2
+    return first, second
 
 
 def test_profile_bowing_is_the_axial_force_series_of_a_tapered_members_stiffness():
@@ -75,13 +91,39 @@ def test_profile_bowing_is_the_axial_force_series_of_a_tapered_members_stiffness
     from sensor.mechanics.solver import profile_bowing
 
     stations = np.array([[0.0, 0.9], [1.0, 0.3], [3.0, 0.6]])
-    p11, p12, p22, c11, c12, c22 = profile_bowing(stations) * np.r_[1, 1, 1, np.full(3, 12 / E)]
+    p11, p12, p22, c11, c12, c22, d1, d2 = profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12 / E)]
+    assert d1 == d2 == 0.0
     for (ta, tb), p, c in (((1.0, 0.0), p11, c11), ((0.0, 1.0), p22, c22), ((1.0, 1.0), p11 + p12 + p22, c11 + c12 + c22)):
-        U = {N: beam_column_energy(stations, N, ta, tb) for N in (-0.4, -0.2, 0.0, 0.2, 0.4)}
-        first = (4 * (U[0.2] - U[-0.2]) / 0.4 - (U[0.4] - U[-0.4]) / 0.8) / 3
-        second = (4 * (U[0.2] + U[-0.2] - 2 * U[0.0]) / 0.04 - (U[0.4] + U[-0.4] - 2 * U[0.0]) / 0.16) / 3 / 2
+        first, second = axial_force_series(stations, ta, tb)
         assert first == pytest.approx(p, rel=5e-4)
         assert second == pytest.approx(c, rel=5e-4)
+
+
+def test_profile_bowing_carries_the_centroid_offsets_second_order_term():
+    """The same neck with its centroid off the chord (e 0.15 -> 0 -> 0.1 mm, as an oblique
+    root's): the second-order energy gains N^2 (d1 theta_a + d2 theta_b), so the N^2
+    coefficient under theta_a = +-1 is c11 +- d1 and under theta_b = +-1 is c22 +- d2 (beyond
+    its value with the ends held, the offset's own N^2 e^2 term), within
+    0.05 % of the boundary-value solution (measured 5e-5: the extrapolated midpoint rules).
+    The offset's sign is the flexibility's: the N theta coefficient (N times the chord's
+    stretch under unit end rotations) is -k01 / k00, -k02 / k00 of the member's stiffness
+    from profile_flexibility on a finely stationed copy (3-point Gauss a segment is exact only
+    for gently varying profiles), within 1e-4 (measured under 1e-6). Control: d1 is 49 % of
+    c11's size here, so leaving it out fails both."""
+    from sensor.mechanics.solver import natural_stiffness, profile_bowing
+
+    stations = np.array([[0.0, 0.9, 0.15], [1.0, 0.3, 0.0], [3.0, 0.6, 0.1]])
+    _, _, _, c11, _, c22, d1, d2 = profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12 / E)]
+    assert abs(d1) > 0.3 * abs(c11) and abs(d2) > 0.1 * abs(c22)
+    fine = np.linspace(0.0, 3.0, 601)
+    dense = np.column_stack([fine] + [np.interp(fine, stations[:, 0], stations[:, j]) for j in (1, 2)])
+    K = natural_stiffness(3.0, 0.5, 1.0, E, 1e12, flexibility=profile_flexibility(dense, 1.0, E, 1e12))
+    offset_alone = axial_force_series(stations, 0.0, 0.0)[1]  # N^2 e^2: the linear flexibility's
+    for (ta, tb), c, d, k in (((1.0, 0.0), c11, d1, K[0, 1]), ((0.0, 1.0), c22, d2, K[0, 2])):
+        (up, plus), (down, minus) = axial_force_series(stations, ta, tb), axial_force_series(stations, -ta, -tb)
+        assert plus - offset_alone == pytest.approx(c + d, rel=5e-4)
+        assert minus - offset_alone == pytest.approx(c - d, rel=5e-4)
+        assert (up - down) / 2 == pytest.approx(k / K[0, 0], abs=1e-4)
 
 
 def test_uniform_members_closed_form_equals_their_profile_integrals():

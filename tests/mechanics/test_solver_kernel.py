@@ -126,7 +126,7 @@ def test_member_end_moments_follow_the_stability_functions(phi, second_order):
     L, t, b, E = 2.0, 0.4, 6.0, 2000.0
     EI = E * b * t**3 / 12
     stations = np.column_stack([np.linspace(0, L, 9), np.full(9, t)])
-    bw = profile_bowing(stations) * np.r_[1, 1, 1, np.full(3, 12 / (E * b))]
+    bw = profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12 / (E * b))]
     if not second_order:
         bw[3:] = 0.0
     kn = natural_stiffness(L, t, b, E, 1e9)
@@ -148,26 +148,32 @@ def test_member_end_moments_follow_the_stability_functions(phi, second_order):
 
 def test_member_forces_are_the_gradient_of_its_strain_energy():
     """One member with a tapered, asymmetric neck (0.9 -> 0.3 -> 0.6 mm, its centroid off the
-    axis so that Kn couples stretch and bending), stretched and turned far (ends 0.2 and
-    -0.15 rad, chord turned 0.1 rad): the node forces the kernel returns are the central
-    differences of the strain energy it returns (the strain energy the solver reports is
-    the one its equilibrium minimises), to 1e-6 relative of the largest force (step 1e-6,
-    truncation ~1e-12; the N^2 term is exaggerated 1000 times so that it shows)."""
+    axis so that Kn couples stretch and bending and the N^2 term has its d1, d2), stretched
+    and turned far (ends 0.2 and -0.15 rad, chord turned 0.1 rad): the node forces the
+    kernel returns are the central differences of the strain energy it returns (the strain
+    energy the solver reports is the one its equilibrium minimises), and its tangent the
+    central differences of those forces, each to 1e-6 relative of its largest entry (step
+    1e-6, truncation ~1e-12; the N^2 term is exaggerated 1000 times so that it shows)."""
     from sensor.mechanics.solver import natural_stiffness, profile_bowing, profile_flexibility
 
     E, b = 2000.0, 6.0
     stations = np.array([[0.0, 0.9, 0.05], [1.2, 0.3, 0.0], [3.0, 0.6, -0.02]])
     L = stations[-1, 0]
     kn = natural_stiffness(L, 0.3, b, E, E / 2.7, profile_flexibility(stations, b, E, E / 2.7))
-    bw = profile_bowing(stations[:, :2]) * np.r_[1, 1, 1, np.full(3, 12e3 / (E * b))]
+    bw = profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12e3 / (E * b))]
+    assert np.all(bw[6:] != 0.0)
     w = K.work(2, 6)
 
-    def energy_and_force(x):
+    def energy_force_tangent(x):
         energy, _, f = one_member(kn, bw, L, np.array([[x[0], x[1]], [x[3], x[4]]]), np.array([x[2], x[5]]), w)
-        return energy, f
+        return energy, f, w.Ke.copy()
 
     x = np.array([0.0, 0.0, 0.2, 0.004, 0.1 * L, -0.15])
-    _, f = energy_and_force(x)
+    _, f, tangent = energy_force_tangent(x)
     h = 1e-6
-    grad = np.array([(energy_and_force(x + h * e)[0] - energy_and_force(x - h * e)[0]) / (2 * h) for e in np.eye(6)])
+    grad = np.array([(energy_force_tangent(x + h * e)[0] - energy_force_tangent(x - h * e)[0]) / (2 * h)
+                     for e in np.eye(6)])
     assert np.max(np.abs(grad - f)) <= 1e-6 * np.max(np.abs(f)), (grad, f)
+    hess = np.array([(energy_force_tangent(x + h * e)[1] - energy_force_tangent(x - h * e)[1]) / (2 * h)
+                     for e in np.eye(6)])
+    assert np.max(np.abs(hess - tangent)) <= 1e-6 * np.max(np.abs(tangent))
