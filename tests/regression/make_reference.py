@@ -3,8 +3,9 @@
 Run once from the code BEFORE a speed change (this file was first run at main d567a96; re-run
 after the model of the part as cut, issue 23, changed every result on purpose, again
 when the root rule took the face's lean, when the knee blocks began to bend, when the
-members took the axial force's second-order term, and when the hinges took the axial spread
-into their bodies and the input its contact):
+members took the axial force's second-order term, when the hinges took the axial spread
+into their bodies and the input its contact, and when that second-order term took the
+oblique roots' centroid offset):
     python -m tests.regression.make_reference
 It writes tests/regression/data/reference.npz: every preset's solve (default options and to
 a target force), the datasheet and cross-axis figures of every preset with the `dacm sensor`
