@@ -112,7 +112,7 @@ ROOT_COUPLING_PER_LEAN = 1.98
 AXIAL_SPREAD_PER_DEPTH = 1.669
 AXIAL_SPREAD_PER_FILLET = 0.1084
 #: The width (mm) of the contact the input is pushed through: the continuum reference's
-#: punch (sensor.mechanics.continuum.PUNCH_WIDTH_MM). The input force at the top plate's
+#: punch (sensor.mechanics.continuum's default). The input force at the top plate's
 #: centre (DESIGN section 3) spreads over it, and two things beam theory leaves out happen
 #: under it (:func:`contact_compliance`): the plate under a rigid punch bends less than
 #: elsewhere (the top plate's members start CONTACT_START_PER_WIDTH x w either side of the

@@ -11,8 +11,8 @@ from sensor.cli.output import add_output_arguments, claim, make_out_dir, print_j
 from sensor.cli.progress import add_quiet_argument, busy
 
 MESHES = ("coarse", "default", "fine")
-#: sensor.mechanics.continuum.PUNCH_WIDTH_MM, the reference's punch (not imported here: the
-#: continuum module is heavy for ``dacm --help``; tests/cli/test_verify_cli.py checks it);
+#: geometry.topology.INPUT_CONTACT_MM, the reference's punch (not imported here: numpy
+#: is heavy for ``dacm --help``; tests/cli/test_verify_cli.py checks it);
 #: on a top plate under twice that thick, half the plate (geometry.topology.input_contact_mm).
 PUNCH_DEFAULT_MM = 0.5
 

@@ -13,7 +13,7 @@ Boundary conditions follow the beam model (:func:`geometry.topology.build_beam_m
 
 * the base plate's bottom edge is clamped (the body stands on it); ``clamp="base plate"``
   clamps the whole base plate instead;
-* the input is a rigid punch ``punch_width_mm`` wide (default :data:`PUNCH_WIDTH_MM`) at the
+* the input is a rigid punch ``punch_width_mm`` wide (default :data:`geometry.topology.INPUT_CONTACT_MM`) at the
   top plate's centre, pushed straight down with no sideways motion or rotation (guided, as
   the X-stage did);
 * the output is the mirror's vertical travel (platform underside centre; the top plate's
@@ -59,7 +59,6 @@ CLAMPS = ("bottom edge", "base plate")
 #: punch's: it is the spread, not the punch's rigidity). A plain 2 mm plate clamped over a
 #: 17.4 mm span (plane strain, one run) shows why: under a 0.1 mm punch it is 2.3 % more
 #: compliant than under 0.5 mm, under 0.05 mm 0.8 % more again (elements of 0.025 mm).
-PUNCH_WIDTH_MM = INPUT_CONTACT_MM
 
 
 @dataclass(frozen=True, eq=False)
@@ -208,7 +207,7 @@ def _split_at(loop: np.ndarray, xs: tuple[float, ...], y: float) -> np.ndarray:
     return np.array(out)
 
 
-def mesh_profile(design: Design, n_across: float, punch_width_mm: float = PUNCH_WIDTH_MM,
+def mesh_profile(design: Design, n_across: float, punch_width_mm: float = INPUT_CONTACT_MM,
                  kerf_mm: float | None = None):
     """Linear triangles (points (N, 2), triangles (M, 3)) of the profile cut with ``kerf_mm``
     (see :func:`cut_profile_loops`), ``n_across`` elements across each hinge; vertices at
@@ -605,7 +604,7 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     (every re-entrant corner, as :func:`geometry.topology.root_radius_mm` gives the roots).
     Results are reported at the output travel ``target_output_mm`` (linear: scaled to it);
     nonlinear results also say whether that state is stable. The punch is ``punch_width_mm``
-    wide (default :func:`geometry.topology.input_contact_mm`: :data:`PUNCH_WIDTH_MM`, less on
+    wide (default :func:`geometry.topology.input_contact_mm`: :data:`~geometry.topology.INPUT_CONTACT_MM`, less on
     a top plate under 1 mm).
     """
     n_across = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
@@ -913,7 +912,7 @@ def verify_design(design: Design, mesh: str | float = "default", plane_strain: b
     ``kerf_mm`` (default the design's own ``kerf_mm``; 0: the drawing), compared at
     ``target_output_mm`` (linear: both in the linear limit, scaled to it), the input pushed
     through a punch ``punch_width_mm`` wide (default :func:`geometry.topology.input_contact_mm`;
-    see :data:`PUNCH_WIDTH_MM`).
+    see :data:`~geometry.topology.INPUT_CONTACT_MM`).
 
     Nonlinear, with ``nonlinear_meshes`` = 1 (the default), the three meshes are solved
     linear and only the coarsest nonlinear: each FE value is the linear study's, times the

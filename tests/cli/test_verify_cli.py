@@ -8,7 +8,7 @@ import pytest
 from geometry.params import MATERIALS, preset, save_design
 from sensor.cli import main
 from sensor.cli.verify import PUNCH_DEFAULT_MM
-from sensor.mechanics.continuum import PUNCH_WIDTH_MM
+from geometry.topology import INPUT_CONTACT_MM
 from tests.mechanics.make_continuum_table import BASIS_5N, DESIGN_5N, PAIRS, body
 
 
@@ -19,7 +19,7 @@ def test_verify_json_has_the_issue_keys_and_writes_the_figure(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert (out["kerf_mm"], out["profile"]) == (0.0, "as drawn (kerf 0: sharp hinge roots)")
     # the CLI's default punch is the reference's (it does not import the continuum module)
-    assert out["options"]["punch_width_mm"] == PUNCH_WIDTH_MM == PUNCH_DEFAULT_MM
+    assert out["options"]["punch_width_mm"] == INPUT_CONTACT_MM == PUNCH_DEFAULT_MM
     for side in ("fe", "beam"):
         for key in ("amplification", "k_out_N_per_mm", "strain_energy_mJ", "hinge_stress_MPa",
                     "hinge_peak_stress_MPa"):

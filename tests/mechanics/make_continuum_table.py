@@ -48,7 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from geometry.params import Design, Material, design_to_dict, make_design, preset
-from sensor.mechanics.continuum import PUNCH_WIDTH_MM, convergence_study, richardson, verify
+from geometry.topology import INPUT_CONTACT_MM
+from sensor.mechanics.continuum import convergence_study, richardson, verify
 
 TABLE = Path(__file__).with_name("data") / "continuum_table.json"
 
@@ -312,7 +313,7 @@ def _store(section: str, name: str, row: dict) -> None:
         fcntl.flock(fd, fcntl.LOCK_EX)
         table = json.loads(TABLE.read_text()) if TABLE.exists() else {}
         table["about"] = ("continuum FE (sensor.mechanics.continuum), plane stress, base bottom "
-                          f"edge clamped, guided {PUNCH_WIDTH_MM:g} mm punch, values at 1 mm output travel (linear: "
+                          f"edge clamped, guided {INPUT_CONTACT_MM:g} mm punch, values at 1 mm output travel (linear: "
                           "scaled to it). cases: the drawn profile (kerf 0); entries: the part as "
                           "cut (root fillets r = kerf_mm / 2), see tests/mechanics/make_continuum_table.py")
         table.setdefault(section, {})[name] = row

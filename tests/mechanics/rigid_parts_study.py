@@ -39,7 +39,7 @@ import numpy as np
 
 from geometry.layout import make_layout, make_parts
 from geometry.params import Design, design_from_dict
-from geometry.topology import BeamModel, build_beam_model, root_radius_mm
+from geometry.topology import INPUT_CONTACT_MM, BeamModel, build_beam_model, root_radius_mm
 from sensor.errors import SolverError
 from sensor.mechanics import continuum
 from sensor.mechanics.continuum import LINEAR_LIMIT_FRACTION, relative_error_pct
@@ -144,9 +144,9 @@ def study(name: str, across: float, margin_mm: float, travel_mm: float | None = 
 
     design = design_of(name)
     model = build_beam_model(design)
-    points, triangles = continuum.mesh_profile(design, across, continuum.PUNCH_WIDTH_MM,
+    points, triangles = continuum.mesh_profile(design, across, INPUT_CONTACT_MM,
                                                2.0 * root_radius_mm(design))
-    pb = continuum.body_problem(design, points, triangles, False, continuum.PUNCH_WIDTH_MM, "bottom edge")
+    pb = continuum.body_problem(design, points, triangles, False, INPUT_CONTACT_MM, "bottom edge")
     mesh = pb.basis.mesh
     centres = mesh.p[:, mesh.t].mean(axis=1)
     polygons = {p.name: p.polygon for p in make_parts(make_layout(design))}

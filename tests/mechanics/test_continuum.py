@@ -9,10 +9,9 @@ import pytest
 from types import SimpleNamespace
 
 from geometry.params import Material, preset
-from geometry.topology import build_beam_model, contact_rule
+from geometry.topology import INPUT_CONTACT_MM, build_beam_model, contact_rule
 from sensor.errors import SensorInputError, SolverError
 from sensor.mechanics.continuum import (
-    PUNCH_WIDTH_MM,
     REFINEMENT_RATIO,
     _corner_gradients,
     _gradients_at,
@@ -144,13 +143,13 @@ def test_a_wider_contact_raises_A_next_to_the_toggle_but_not_k_out():
     """How the input is pushed matters for A where the top plate takes most of the input
     travel (03-03-12-4, phi2 4 deg: 80 % of it): the contact's compliance is part of the
     input travel, and it shrinks as the contact widens, so A grows with the punch's width,
-    by more than the issue's 1.5 % from the reference's 0.5 mm (PUNCH_WIDTH_MM) to 1 mm
+    by more than the issue's 1.5 % from the reference's 0.5 mm (INPUT_CONTACT_MM) to 1 mm
     (measured: 2.14, 2.18 and 2.27 at 0.25, 0.5 and 1 mm). The output stiffness k_out = force / output
     travel does not see where the input travel is measured: within 0.3 % (the plate's
     bending under a spread load, a second-order change)."""
     d = DESIGNS["03-03-12-4"]
-    narrow, ref, wide = (verify(d, mesh=QUICK, punch_width_mm=w) for w in (0.25, PUNCH_WIDTH_MM, 1.0))
-    assert PUNCH_WIDTH_MM == 0.5
+    narrow, ref, wide = (verify(d, mesh=QUICK, punch_width_mm=w) for w in (0.25, INPUT_CONTACT_MM, 1.0))
+    assert INPUT_CONTACT_MM == 0.5
     assert narrow.amplification < ref.amplification < wide.amplification
     assert wide.amplification / ref.amplification > 1.015
     assert narrow.k_out_N_per_mm == pytest.approx(wide.k_out_N_per_mm, rel=3e-3)
