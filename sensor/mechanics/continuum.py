@@ -13,9 +13,9 @@ Boundary conditions follow the beam model (:func:`geometry.topology.build_beam_m
 
 * the base plate's bottom edge is clamped (the body stands on it); ``clamp="base plate"``
   clamps the whole base plate instead;
-* the input is a rigid punch ``punch_width_mm`` wide (default :data:`geometry.topology.INPUT_CONTACT_MM`) at the
-  top plate's centre, pushed straight down with no sideways motion or rotation (guided, as
-  the X-stage did);
+* the input is a rigid punch ``punch_width_mm`` wide (default
+  :data:`geometry.topology.INPUT_CONTACT_MM`) at the top plate's centre, pushed straight
+  down with no sideways motion or rotation (guided, as the X-stage did);
 * the output is the mirror's vertical travel (platform underside centre; the top plate's
   underside for the basis) relative to the fiber tip on the base.
 
@@ -604,8 +604,8 @@ def verify(design: Design, mesh: str = "default", plane_strain: bool = False,
     (every re-entrant corner, as :func:`geometry.topology.root_radius_mm` gives the roots).
     Results are reported at the output travel ``target_output_mm`` (linear: scaled to it);
     nonlinear results also say whether that state is stable. The punch is ``punch_width_mm``
-    wide (default :func:`geometry.topology.input_contact_mm`: :data:`~geometry.topology.INPUT_CONTACT_MM`, less on
-    a top plate under 1 mm).
+    wide (default :func:`geometry.topology.input_contact_mm`:
+    :data:`~geometry.topology.INPUT_CONTACT_MM`, less on a top plate under 1 mm).
     """
     n_across = MESH_LEVELS.get(mesh) if isinstance(mesh, str) else float(mesh)
     if n_across is None or not (math.isfinite(n_across) and n_across > 0):

@@ -21,12 +21,12 @@ How the thesis' method maps onto the code:
   1 mm next to the toggle, where the first-order term alone is about 1.4 % too stiff). So one
   element per hinge or link is enough (checked within 0.3 % against an independent
   32-segment geometrically exact frame model on the presets; at 1 mm next to the toggle,
-  within 0.2 point of k_out of the same model split into 8 on toggle-band-0 and the 10 and
-  15 N design answers, 0.4 on like-4 of the continuum table, whose oblique roots put the
+  within 0.1 point of k_out of the same model split into 8 on toggle-band-0 and the 10 and
+  15 N design answers, 0.3 on like-4 of the continuum table, whose oblique roots put the
   hinge's centroid e off its chord: the section's moment is then a + b s + N (w + e), and
   the second-order term carries e too (profile_bowing's d1, d2; like-4's A against the frame
-  model at 1 mm -0.80 -> -0.39 %). Splitting every hinge in two costs 41 % of a batch solve;
-  stop 57, one-off).
+  model at 1 mm -0.80 -> -0.39 %; one-off runs). Splitting every hinge in two costs 41 % of
+  a batch solve (stop 57, one-off).
 * Figure 47: the load is applied in increments and the geometry updated after each; the
   run stops when the output port reaches the target travel (the increments are taken in
   output travel, so the target is met exactly) or the input force reaches a target. Newton
