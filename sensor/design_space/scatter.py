@@ -43,7 +43,13 @@ def as_cut(design: Design, z: np.ndarray, sd_mm: float, offset_mm: float = 0.0, 
     return AsCut(draws, ok, designs, models, results)
 
 
+def used_thickness_mm(design: Design, thickness_mm: np.ndarray) -> np.ndarray:
+    """(draws, used hinges): the columns of hinges ``thickness_mm`` (draws, 12) that
+    ``design`` uses (its used hinges come first in hinge-number order)."""
+    return np.asarray(thickness_mm)[:, :len(design.used_hinges)]
+
+
 def makeable(design: Design, thickness_mm: np.ndarray) -> np.ndarray:
     """(draws,) mask of the parts of ``design`` with hinges ``thickness_mm`` (draws, 12)
     that can be made: every used hinge at least ``min_feature_mm``."""
-    return np.asarray(thickness_mm)[:, :len(design.used_hinges)].min(axis=1) >= design.min_feature_mm
+    return used_thickness_mm(design, thickness_mm).min(axis=1) >= design.min_feature_mm

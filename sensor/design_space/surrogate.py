@@ -44,7 +44,7 @@ from scipy.stats import norm, qmc
 from geometry.params import Design
 from geometry.process import Process
 from sensor.design_space.optimise import used_pairs
-from sensor.design_space.scatter import as_cut, makeable
+from sensor.design_space.scatter import as_cut, makeable, used_thickness_mm
 from sensor.mechanics.hysteresis import StrainEnergyLaw
 from sensor.mechanics.stress import peak_stresses
 
@@ -83,7 +83,7 @@ class ResponseSurface:
         cut drops or adds a draw as a hinge's drawn thickness crosses it, one or two draws
         in a forward-difference step at the 0.3 mm hinge minimum; 1.7 estimated, stop 58)."""
         z = np.asarray(z)
-        t = self.process.as_cut(self.design.hinge_thickness_mm, z)[:, :len(self.design.used_hinges)]
+        t = used_thickness_mm(self.design, self.process.as_cut(self.design.hinge_thickness_mm, z))
         margin = (t - self.design.min_feature_mm) / (MADE_SMOOTHING * self.process.sd_mm)
         return {**self._read(z, law), "weight": np.exp(norm.logcdf(margin).sum(axis=1))}
 
