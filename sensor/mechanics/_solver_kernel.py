@@ -83,7 +83,7 @@ def element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, K, Bm, KB
     # bowing: the axis is longer than the chord by p11 t1^2 + p12 t1 t2 + p22 t2^2 (for a
     # uniform member L0 (2 t1^2 - t1 t2 + 2 t2^2) / 30; Bw holds each member's p), and the
     # axial force n changes the bending stiffness at second order too: strain energy
-    # n^2 (c11 t1^2 + c12 t1 t2 + c22 t2^2) (Bw[3:]; -L^3 (11, -13, 11) / 12600 EI
+    # n^2 (c11 t1^2 + c12 t1 t2 + c22 t2^2) (Bw[3:6]; -L^3 (11, -13, 11) / 12600 EI
     # for a uniform member, the n^2 term of the stability functions), with n^2 (d1 t1 + d2 t2)
     # where an oblique root's centroid leaves the chord (Bw[6:]; zero on a uniform member)
     p11, p12, p22 = Bw[k, 0], Bw[k, 1], Bw[k, 2]

@@ -47,18 +47,19 @@ from sensor.mechanics.solver import LINEAR_LIMIT_FRACTION
 #: scales with it). Consecutive levels differ by sqrt(2) in size, as Richardson needs.
 MESH_LEVELS = {"coarse": 3.0, "default": 6.0, "fine": 12.0}
 CLAMPS = ("bottom edge", "base plate")
-#: The punch's width (mm): the contact the input is pushed through. DESIGN section 3's input
-#: is a force at the top plate's centre, but a point force has no finite travel in plane
-#: elasticity (the contact's own compliance grows as ln(1 / width)): the reference pushes a
-#: 0.5 mm punch (geometry.topology.INPUT_CONTACT_MM), and the beam model spreads its input
-#: over the same contact and takes the top plate's centre-line deflection as the input
-#: travel (no contact compliance). A depends on the contact where the top plate takes
-#: most of the input travel (next to the toggle): on 03-03-12-4 (phi2 4 deg), 12 elements
-#: across, A is 2.1272 with a 0.1 mm punch, 2.1404 with 0.25, 2.1666 with 0.5 and 2.2403
-#: with 1 mm, k_out within 0.2 % (a uniform pressure over 0.5 mm gives A within 0.1 % of the
-#: punch's: it is the spread, not the punch's rigidity). A plain 2 mm plate clamped over a
-#: 17.4 mm span (plane strain, one run) shows why: under a 0.1 mm punch it is 2.3 % more
-#: compliant than under 0.5 mm, under 0.05 mm 0.8 % more again (elements of 0.025 mm).
+# The punch (its default width geometry.topology.INPUT_CONTACT_MM): the contact the input
+# is pushed through. DESIGN section 3's input is a force at the top plate's centre, but a
+# point force has no finite travel in plane elasticity (the contact's own compliance grows
+# as ln(1 / width)): the reference pushes a 0.5 mm punch
+# (geometry.topology.INPUT_CONTACT_MM), and the beam model spreads its input over the same
+# contact and takes the top plate's centre-line deflection as the input travel (no contact
+# compliance). A depends on the contact where the top plate takes most of the input travel
+# (next to the toggle): on 03-03-12-4 (phi2 4 deg), 12 elements across, A is 2.1272 with a
+# 0.1 mm punch, 2.1404 with 0.25, 2.1666 with 0.5 and 2.2403 with 1 mm, k_out within 0.2 %
+# (a uniform pressure over 0.5 mm gives A within 0.1 % of the punch's: it is the spread,
+# not the punch's rigidity). A plain 2 mm plate clamped over a 17.4 mm span (plane strain,
+# one run) shows why: under a 0.1 mm punch it is 2.3 % more compliant than under 0.5 mm,
+# under 0.05 mm 0.8 % more again (elements of 0.025 mm).
 
 
 @dataclass(frozen=True, eq=False)

@@ -21,8 +21,8 @@ How the thesis' method maps onto the code:
   1 mm next to the toggle, where the first-order term alone is about 1.4 % too stiff). So one
   element per hinge or link is enough (checked within 0.3 % against an independent
   32-segment geometrically exact frame model on the presets; at 1 mm next to the toggle,
-  within 0.1 point of k_out of the same model split into 8 on toggle-band-0 and the 10 and
-  15 N design answers, 0.3 on like-4 of the continuum table, whose oblique roots put the
+  within about 0.1 point of k_out of the same model split into 8 on toggle-band-0 and the
+  10 and 15 N design answers, 0.3 on like-4 of the continuum table, whose oblique roots put the
   hinge's centroid e off its chord: the section's moment is then a + b s + N (w + e), and
   the second-order term carries e too (profile_bowing's d1, d2; like-4's A against the frame
   model at 1 mm -0.80 -> -0.39 %; one-off runs). Splitting every hinge in two costs 41 % of
@@ -169,7 +169,7 @@ def profile_bowing(stations):
       p11 theta_a^2 + p12 theta_a theta_b + p22 theta_b^2 when the ends turn by theta_a,
       theta_b from the chord (the shallow-arch term of the solver's co-rotational members;
       for a uniform member L (2, -1, 2) / 30, the cubic shape's);
-    * c11, c12, c22 (mm^4, to be divided by E b / 12): the axial force N's second-order
+    * c11, c12, c22 (dimensionless; times 12 / (E b), mm/N): the axial force N's second-order
       term in the bending energy, N^2 (c11 theta_a^2 + c12 theta_a theta_b + c22 theta_b^2):
       c11 = -1/2 int m_a^2 ds / EI, c12 = -int m_a m_b ds / EI, c22 = -1/2 int m_b^2 ds / EI,
       where m_a, m_b are the deflections w under unit end rotations less their (1 / EI)-
@@ -177,7 +177,7 @@ def profile_bowing(stations):
       under N (the beam-column of Timoshenko & Gere, Theory of Elastic Stability, 1.9); for
       a uniform member -L^3 (11, -13, 11) / 12600 EI, the N^2 term of the stability
       functions' series;
-    * d1, d2 (mm^3, to be divided by E b / 12): where the stations carry a third column, the
+    * d1, d2 (dimensionless; times 12 / (E b), mm/N): where the stations carry a third column, the
       centroid offset e (:func:`profile_flexibility`; an oblique root's centroid leaves the
       chord), the section's moment is a + b s + N (w + e), and the second-order energy gains
       N^2 (d1 theta_a + d2 theta_b): d1 = -int m_a r_e ds / EI, d2 = -int m_b r_e ds / EI,
