@@ -45,7 +45,8 @@ def as_cut(design: Design, z: np.ndarray, sd_mm: float, offset_mm: float = 0.0, 
 
 def used_thickness_mm(design: Design, thickness_mm: np.ndarray) -> np.ndarray:
     """(draws, used hinges): the columns of hinges ``thickness_mm`` (draws, 12) that
-    ``design`` uses (its used hinges come first in hinge-number order)."""
+    ``design`` uses (its used hinges come first in hinge-number order): per draw, what
+    :attr:`geometry.params.Design.used_thickness_mm` is for the drawing."""
     return np.asarray(thickness_mm)[:, :len(design.used_hinges)]
 
 

@@ -85,9 +85,9 @@ def test_profile_bowing_is_the_axial_force_series_of_a_tapered_members_stiffness
     N p(theta) + N^2 c(theta) beyond the N = 0 energy (p the bowing, c the second-order
     coefficients of profile_bowing, times 12 / E b). Measured by central differences of the
     boundary-value solution at N = +-0.2 and +-0.4 N (Richardson-combined so the N^3 and N^4
-    terms cancel; N L^2 / EI at most 0.9 at the neck): within 0.05 % (measured up to 2e-5
-    on p and 1.1e-4 on c: profile_bowing's extrapolated midpoint rules; the boundary-value tolerance
-    1e-8)."""
+    terms cancel; N L^2 / EI at most 0.9 at the neck): within 0.05 % (measured up to 7.5e-6
+    on p and 9.2e-5 on c: profile_bowing's extrapolated midpoint rules; the boundary-value
+    tolerance 1e-10)."""
     from sensor.mechanics.solver import profile_bowing
 
     stations = np.array([[0.0, 0.9], [1.0, 0.3], [3.0, 0.6]])
@@ -103,13 +103,14 @@ def test_profile_bowing_carries_the_centroid_offsets_second_order_term():
     """The same neck with its centroid off the chord (e 0.15 -> 0 -> 0.1 mm, as an oblique
     root's): the second-order energy gains N^2 (d1 theta_a + d2 theta_b), so the N^2
     coefficient under theta_a = +-1 is c11 +- d1 and under theta_b = +-1 is c22 +- d2 (beyond
-    its value with the ends held, the offset's own N^2 e^2 term), within
-    0.05 % of the boundary-value solution (measured 5e-5: the extrapolated midpoint rules).
-    The offset's sign is the flexibility's: the N theta coefficient (N times the chord's
-    stretch under unit end rotations) is -k01 / k00, -k02 / k00 of the member's stiffness
-    from profile_flexibility on a finely stationed copy (3-point Gauss a segment is exact only
-    for gently varying profiles), within 1e-4 (measured under 1e-6). Control: d1 is 49 % of
-    c11's size here, so leaving it out fails both."""
+    its value with the ends held, the offset's own N^2 e^2 term), within 0.05 % of the
+    boundary-value solution (measured up to 7.6e-5: the extrapolated midpoint rules). The
+    offset's sign is the flexibility's: the N theta coefficient (N times the chord's stretch
+    under unit end rotations) is -k01 / k00, -k02 / k00 of the member's stiffness from
+    profile_flexibility on a finely stationed copy (3-point Gauss a segment is exact only for
+    gently varying profiles), within 1e-4 relative (measured under 1e-6). Controls: d1 is 33 %
+    of c11 and d2 15 % of c22 here, so leaving them out misses by that much, and a flipped
+    sign by more."""
     from sensor.mechanics.solver import natural_stiffness, profile_bowing
 
     stations = np.array([[0.0, 0.9, 0.15], [1.0, 0.3, 0.0], [3.0, 0.6, 0.1]])
@@ -123,7 +124,7 @@ def test_profile_bowing_carries_the_centroid_offsets_second_order_term():
         (up, plus), (down, minus) = axial_force_series(stations, ta, tb), axial_force_series(stations, -ta, -tb)
         assert plus - offset_alone == pytest.approx(c + d, rel=5e-4)
         assert minus - offset_alone == pytest.approx(c - d, rel=5e-4)
-        assert (up - down) / 2 == pytest.approx(k / K[0, 0], abs=1e-4)
+        assert (up - down) / 2 == pytest.approx(k / K[0, 0], rel=1e-4)
 
 
 def test_uniform_members_closed_form_equals_their_profile_integrals():
@@ -146,6 +147,27 @@ def test_uniform_members_closed_form_equals_their_profile_integrals():
     assert b.output_travel_mm == pytest.approx(a.output_travel_mm, rel=1e-6)
     assert b.strain_energy_mJ == pytest.approx(a.strain_energy_mJ, rel=1e-6)
     assert thicker.output_travel_mm < 0.97 * a.output_travel_mm
+
+
+def test_an_offset_profile_drawn_at_another_length_is_the_same_member():
+    """The tapered neck with its centroid off the chord (as in
+    test_profile_bowing_carries_the_centroid_offsets_second_order_term) as the first of two
+    members of a cantilever pulled out and sideways (tip travel 1.3 mm, 43 % of the member),
+    its profile drawn at the member's length and 1.37 times longer: the solver stretches a
+    profile's integrals to the member (the bowing as the stretch, d1 and d2 as its square, the
+    c's as its cube; the offset e is across the member and does not stretch), so the tip
+    travel and strain energy agree within 1e-9 (measured 1e-15). Control, one-off: d1 and
+    d2 scaled as the c's moved the travel by 3e-4."""
+    stations = np.array([[0.0, 0.9, 0.15], [1.0, 0.3, 0.0], [3.0, 0.6, 0.1]])
+    base = chain_model([(0, 0), (3, 0), (5, 0)], 0.4, out=2, inp_dir=(0.6, -0.8), out_dir=(0.6, -0.8))
+
+    def drawn(stretch):
+        return dataclasses.replace(base, profile_mm=(stations * np.array([stretch, 1.0, 1.0]), None))
+
+    at_length, longer = (solve(drawn(k), target_force_N=2.0) for k in (1.0, 1.37))
+    assert at_length.output_travel_mm > 1.2
+    assert longer.output_travel_mm == pytest.approx(at_length.output_travel_mm, rel=1e-9)
+    assert longer.strain_energy_mJ == pytest.approx(at_length.strain_energy_mJ, rel=1e-9)
 
 
 # --- linear: a cantilever with bending, axial and shear terms (eqs 80-82) -----------------
