@@ -13,7 +13,7 @@ from sensor.design_space.surrogate import mirror_of, response_surface, smooth_pe
 from sensor.design_space.tolerance import draws_z, part_statistics
 from sensor.mechanics.stress import hinge_stresses
 
-#: The 10 N nominal answer of the current model (next to the toggle, phi2 9.11 deg): a part
+#: The 10 N nominal answer of stop 58's model (next to the toggle, phi2 9.11 deg): a part
 #: thinner on one side sways and loads that side's hinges, and about 45 % of the parts
 #: exceed the allowable stress (the hardest case for a smooth surface of the peak).
 STRESSED = Design(phi1_deg=32.55, phi2_deg=9.11,
@@ -21,8 +21,8 @@ STRESSED = Design(phi1_deg=32.55, phi2_deg=9.11,
 #: The same angles drawn without mirror symmetry (every hinge moved, none mirrored).
 ASYMMETRIC = STRESSED.replace(
     hinge_thickness_mm=(0.4873, 0.3, 0.3118, 0.8, 0.8, 0.33, 0.32, 0.45, 0.3, 0.3, 0.3, 0.32))
-#: The 10 N robust answer of stop 57's search (the current model's answer of stop 58,
-#: 25.42/13.93, is another drawing of the same kind): about 5 % of its parts over the
+#: The 10 N robust answer of stop 57's search (stop 59's, 25.30/13.98, is another drawing of
+#: the same kind): about 5 % of its parts over the
 #: allowable stress, where the robust search reads the surface.
 ROBUST = Design(phi1_deg=23.96, phi2_deg=14.40,
                 hinge_thickness_mm=(0.8, 0.3047, 0.3728, 0.5012, 0.5012, 0.3728, 0.3047, 0.8,
