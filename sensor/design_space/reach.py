@@ -15,7 +15,8 @@ so they are never inside a feasible body the grid holds (tests/design_space/test
 holds them against a dense scan of equal-hinge bodies at every thickness; a one-off random
 check, stop 57: 30 000 proposed bodies drawn uniformly in the unit box, half of them with
 the hinges biased thick, reached 1.56-28.3 N where feasible, inside the reach's 1.029-36.24
-N, 1.029-36.54 N on the model since). A family's bodies are found once per process (:func:`feasible_bodies`).
+N, 1.029-36.54 N on the model since). A family's bodies are found once per process
+(:func:`feasible_bodies`).
 """
 
 from __future__ import annotations

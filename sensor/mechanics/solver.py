@@ -193,9 +193,11 @@ def _bowing_integrals(stations, substeps):
     s, t = st[..., 0], st[..., 1]
     L = s[..., -1:]
     frac = (np.arange(substeps) + 0.5) / substeps
-    h = np.diff(s, axis=-1)[..., None]
-    x = (s[..., :-1, None] + h * frac).reshape(*s.shape[:-1], -1)
-    tx = (t[..., :-1, None] + np.diff(t, axis=-1)[..., None] * frac).reshape(x.shape)
+
+    def midpoints(v):  # v (linear between stations) at every sub-interval's midpoint
+        return (v[..., :-1, None] + np.diff(v, axis=-1)[..., None] * frac).reshape(*v.shape[:-1], -1)
+
+    x, tx = midpoints(s), midpoints(t)
     ds = np.repeat(np.diff(s, axis=-1) / substeps, substeps, axis=-1)
     flex = ds / tx**3                                       # ds / EI, up to E b / 12
     fa, fb = (1 - x / L) * flex, (x / L) * flex            # curvature per unit end moment
@@ -220,11 +222,7 @@ def _bowing_integrals(stations, substeps):
 
     pa, pb = slope(1.0, 0.0), slope(0.0, 1.0)
     ma, mb = (residual_moment(np.cumsum(p * ds, -1) - p * ds / 2) for p in (pa, pb))
-    if st.shape[-1] > 2:  # the centroid offset's moment arm, N e
-        e = st[..., 2]
-        re = residual_moment((e[..., :-1, None] + np.diff(e, axis=-1)[..., None] * frac).reshape(x.shape))
-    else:
-        re = np.zeros_like(x)
+    re = residual_moment(midpoints(st[..., 2])) if st.shape[-1] > 2 else 0.0  # N e's arm
     return np.stack([0.5 * (pa * pa * ds).sum(-1), (pa * pb * ds).sum(-1), 0.5 * (pb * pb * ds).sum(-1),
                      -0.5 * (ma * ma * flex).sum(-1), -(ma * mb * flex).sum(-1), -0.5 * (mb * mb * flex).sum(-1),
                      -(ma * re * flex).sum(-1), -(mb * re * flex).sum(-1)], axis=-1)
