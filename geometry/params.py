@@ -59,7 +59,7 @@ class Material:
 #: ``sensor.mechanics.table6.calibrate_modulus`` recomputes it (checked in
 #: tests/mechanics/test_table6.py). ABS as printed (FDM), E about 1.8 GPa, the thesis'
 #: softer second material (section 6.1.3), is not calibrated.
-DELRIN_E_MPA = 1789.3
+DELRIN_E_MPA = 1791.2
 #: Allowable stresses are half the tensile yield stress, a margin for the creep and fatigue
 #: of a sensor loaded for hours: acetal homopolymer (Delrin) reaches 72 MPa in tension
 #: (J. M. Margolis (ed.), Engineering Plastics Handbook, McGraw-Hill 2006, Table 5.5), so

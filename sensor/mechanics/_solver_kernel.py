@@ -61,6 +61,14 @@ def node_state(q, body_of_node, r0, u, th, rho):
         rho[i, 1] = r0[i, 1] + ty
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _cubic(n, s00, s11, s12, s22, ai, aj, Si, Sj, k1i, k1j, k2i, k2j):
+    """Entry (i, j) of the Hessian of n S (see :func:`element`): ai Sj + Si aj + n d2S_ij,
+    a = dn, S_i = dS, k1 = dm1, k2 = dm2 along the deformations i and j."""
+    return ai * Sj + Si * aj + n * (2 * s11 * k1i * k1j + s12 * (k1i * k2j + k2i * k1j)
+                                    + 2 * s22 * k2i * k2j + 2 * s00 * ai * aj)
+
+
 # inlined into its callers (numba IR): a call passes the 19 arrays as ~150 scalars, and the
 # kernel runs it 26 times an evaluation
 @njit(cache=True, error_model="numpy", inline="always")
@@ -85,33 +93,48 @@ def element(k, ea, eb, d0, L0, beta0, Kn, Bw, u, th, rho, defo, qf, f, K, Bm, KB
     # axial force n changes the bending stiffness at second order too: strain energy
     # n^2 (c11 t1^2 + c12 t1 t2 + c22 t2^2) (Bw[3:6]; -L^3 (11, -13, 11) / 12600 EI
     # for a uniform member, the n^2 term of the stability functions), with n^2 (d1 t1 + d2 t2)
-    # where an oblique root's centroid leaves the chord (Bw[6:]; zero on a uniform member)
+    # where an oblique root's centroid leaves the chord (Bw[6:8]; zero on a uniform member).
+    # The material law's cubic term (St Venant-Kirchhoff's, solver.material_coefficients) is
+    # n S, S = s11 m1^2 + s12 m1 m2 + s22 m2^2 + s00 n^2 (Bw[8:12])
     p11, p12, p22 = Bw[k, 0], Bw[k, 1], Bw[k, 2]
     c11, c12, c22 = Bw[k, 3], Bw[k, 4], Bw[k, 5]
     d1, d2 = Bw[k, 6], Bw[k, 7]
+    s11, s12, s22, s00 = Bw[k, 8], Bw[k, 9], Bw[k, 10], Bw[k, 11]
     e0 = stretch + p11 * t1 * t1 + p12 * t1 * t2 + p22 * t2 * t2
     kn = Kn[k]
-    n = kn[0, 0] * e0 + kn[0, 1] * t1 + kn[0, 2] * t2
+    a0, a1, a2 = kn[0, 0], kn[0, 1], kn[0, 2]
+    n = a0 * e0 + a1 * t1 + a2 * t2
     m1 = kn[1, 0] * e0 + kn[1, 1] * t1 + kn[1, 2] * t2
     m2 = kn[2, 0] * e0 + kn[2, 1] * t1 + kn[2, 2] * t2
     g = c11 * t1 * t1 + c12 * t1 * t2 + c22 * t2 * t2 + d1 * t1 + d2 * t2
     g1, g2 = 2 * c11 * t1 + c12 * t2 + d1, c12 * t1 + 2 * c22 * t2 + d2
+    S = s11 * m1 * m1 + s12 * m1 * m2 + s22 * m2 * m2 + s00 * n * n
+    sm1, sm2, sn = 2 * s11 * m1 + s12 * m2, s12 * m1 + 2 * s22 * m2, 2 * s00 * n
+    # dS/d(e0, t1, t2), through m1, m2 and n
+    S0 = sm1 * kn[1, 0] + sm2 * kn[2, 0] + sn * a0
+    S1 = sm1 * kn[1, 1] + sm2 * kn[2, 1] + sn * a1
+    S2 = sm1 * kn[1, 2] + sm2 * kn[2, 2] + sn * a2
     ng2 = 2 * n * g
-    q0 = n + ng2 * kn[0, 0]
-    q1 = m1 + ng2 * kn[0, 1] + n * n * g1
-    q2 = m2 + ng2 * kn[0, 2] + n * n * g2
+    q0 = n + ng2 * a0 + S * a0 + n * S0
+    q1 = m1 + ng2 * a1 + n * n * g1 + S * a1 + n * S1
+    q2 = m2 + ng2 * a2 + n * n * g2 + S * a2 + n * S2
     b1, b2 = 2 * p11 * t1 + p12 * t2, p12 * t1 + 2 * p22 * t2
     qf[0], qf[1], qf[2] = q0, q1 + q0 * b1, q2 + q0 * b2
-    energy = 0.5 * (e0 * n + t1 * m1 + t2 * m2) + n * n * g
+    energy = 0.5 * (e0 * n + t1 * m1 + t2 * m2) + n * n * g + n * S
     # Hessian h of the energy in (e0, t1, t2): Kn, plus the n^2 term's
-    # 2 g kn0 kn0^T + 2 n (kn0 dg^T + dg kn0^T) + n^2 d2g, dg = (0, g1, g2)
-    a0, a1, a2 = kn[0, 0], kn[0, 1], kn[0, 2]
-    h00 = a0 + 2 * g * a0 * a0
-    h01 = a1 + 2 * g * a0 * a1 + 2 * n * a0 * g1
-    h02 = a2 + 2 * g * a0 * a2 + 2 * n * a0 * g2
-    h11 = kn[1, 1] + 2 * g * a1 * a1 + 4 * n * a1 * g1 + 2 * n * n * c11
-    h22 = kn[2, 2] + 2 * g * a2 * a2 + 4 * n * a2 * g2 + 2 * n * n * c22
-    h12 = kn[1, 2] + 2 * g * a1 * a2 + 2 * n * (a1 * g2 + a2 * g1) + n * n * c12
+    # 2 g kn0 kn0^T + 2 n (kn0 dg^T + dg kn0^T) + n^2 d2g, dg = (0, g1, g2), plus n S's
+    # kn0 dS^T + dS kn0^T + n d2S
+    h00 = a0 + 2 * g * a0 * a0 + _cubic(n, s00, s11, s12, s22, a0, a0, S0, S0, kn[1, 0], kn[1, 0], kn[2, 0], kn[2, 0])
+    h01 = (a1 + 2 * g * a0 * a1 + 2 * n * a0 * g1
+           + _cubic(n, s00, s11, s12, s22, a0, a1, S0, S1, kn[1, 0], kn[1, 1], kn[2, 0], kn[2, 1]))
+    h02 = (a2 + 2 * g * a0 * a2 + 2 * n * a0 * g2
+           + _cubic(n, s00, s11, s12, s22, a0, a2, S0, S2, kn[1, 0], kn[1, 2], kn[2, 0], kn[2, 2]))
+    h11 = (kn[1, 1] + 2 * g * a1 * a1 + 4 * n * a1 * g1 + 2 * n * n * c11
+           + _cubic(n, s00, s11, s12, s22, a1, a1, S1, S1, kn[1, 1], kn[1, 1], kn[2, 1], kn[2, 1]))
+    h22 = (kn[2, 2] + 2 * g * a2 * a2 + 4 * n * a2 * g2 + 2 * n * n * c22
+           + _cubic(n, s00, s11, s12, s22, a2, a2, S2, S2, kn[1, 2], kn[1, 2], kn[2, 2], kn[2, 2]))
+    h12 = (kn[1, 2] + 2 * g * a1 * a2 + 2 * n * (a1 * g2 + a2 * g1) + n * n * c12
+           + _cubic(n, s00, s11, s12, s22, a1, a2, S1, S2, kn[1, 1], kn[1, 2], kn[2, 1], kn[2, 2]))
     # local tangent J^T h J + q0 d2(bow)/d(theta)2, J = I + e0 (0, b1, b2) (Kn couples the
     # stretch to the end rotations where a hinge's centroid leaves its axis)
     ka = h00

@@ -93,9 +93,11 @@ _GAUSS_X, _GAUSS_W = ((np.polynomial.legendre.leggauss(3)[0] + 1) / 2, np.polyno
 
 
 def _profile_integrals(stations) -> np.ndarray:
-    """(..., 7): int ds/t, int ds/t^3, int (L-s) ds/t^3, int (L-s)^2 ds/t^3, int e^2 ds/t^3,
-    int e (L-s) ds/t^3 and int e ds/t^3 (mm powers) under the stations (..., k, 2 or 3) of s,
-    t and, if given, e (all linear between stations; 3-point Gauss on each segment)."""
+    """(..., 11): int ds/t, int ds/t^3, int (L-s) ds/t^3, int (L-s)^2 ds/t^3, int e^2 ds/t^3,
+    int e (L-s) ds/t^3, int e ds/t^3, and the material law's int phi_a^2 ds/t^4,
+    int phi_a phi_b ds/t^4, int phi_b^2 ds/t^4 and int ds/t^2 (phi_a = (L-s)/L,
+    phi_b = s/L; mm powers) under the stations (..., k, 2 or 3) of s, t and, if given, e
+    (all linear between stations; 3-point Gauss on each segment)."""
     st = np.asarray(stations, dtype=float)
     s, t = st[..., 0], st[..., 1]
     h = np.diff(s, axis=-1)[..., None]                                 # (..., k-1, 1)
@@ -105,7 +107,7 @@ def _profile_integrals(stations) -> np.ndarray:
     arm = (s[..., -1:] - sq.reshape(*sq.shape[:-2], -1))               # L - s
     inv_t = 1.0 / tq.reshape(*tq.shape[:-2], -1)
     w3 = w * inv_t**3
-    out = np.zeros(s.shape[:-1] + (7,))
+    out = np.zeros(s.shape[:-1] + (11,))
     out[..., 0] = (w * inv_t).sum(-1)
     out[..., 1] = w3.sum(-1)
     out[..., 2] = (w3 * arm).sum(-1)
@@ -116,6 +118,12 @@ def _profile_integrals(stations) -> np.ndarray:
         out[..., 4] = (w3 * eq * eq).sum(-1)
         out[..., 5] = (w3 * eq * arm).sum(-1)
         out[..., 6] = (w3 * eq).sum(-1)
+    phi_a = arm / s[..., -1:]
+    w4 = w3 * inv_t
+    out[..., 7] = (w4 * phi_a * phi_a).sum(-1)
+    out[..., 8] = (w4 * phi_a * (1 - phi_a)).sum(-1)
+    out[..., 9] = (w4 * (1 - phi_a) ** 2).sum(-1)
+    out[..., 10] = (w * inv_t * inv_t).sum(-1)
     return out
 
 
@@ -140,7 +148,7 @@ def profile_flexibility(stations, b, E, G):
 
 
 def _flexibility_of(q, b, E, G, scale=1.0):
-    """Tip flexibility (..., 3, 3) from the section integrals q (..., 7) of
+    """Tip flexibility (..., 3, 3) from the section integrals q (..., 7 or more) of
     :func:`_profile_integrals` (see :func:`profile_flexibility`), of the member stretched
     ``scale`` times along its length (an integral of (L - s)^k ds grows as scale^(k + 1))."""
     b, E, G = (np.asarray(v, dtype=float) for v in (b, E, G))
@@ -153,6 +161,32 @@ def _flexibility_of(q, b, E, G, scale=1.0):
     C[..., 0, 1] = C[..., 1, 0] = bending * scale**2 * q[..., 5]
     C[..., 0, 2] = C[..., 2, 0] = bending * scale * q[..., 6]
     return C
+
+
+def material_coefficients(q, b, E, nu, scale=1.0):
+    """(..., 4) coefficients s11, s12, s22 (1 / N^2 mm) and s00 (mm / N^2) of the material
+    law's cubic strain energy of a member, n (s11 M_a^2 + s12 M_a M_b + s22 M_b^2 + s00 n^2),
+    from the section integrals q (..., 11) of :func:`_profile_integrals` (the member
+    stretched ``scale`` times along its length).
+
+    The continuum reference (:mod:`sensor.mechanics.continuum`) is St Venant-Kirchhoff's:
+    energy E / 2 E11^2 a volume in a plane-stress fibre, E11 = e + e^2 / 2 its Green strain,
+    e its stretch. In a section of axial strain eps and curvature kappa, the fibre y from the
+    centroid stretches e = eps - kappa y_d, where y_d = y - nu (eps y - kappa y^2 / 2) is
+    where the section's contraction (nu e, plane stress) puts it. To the first order past
+    Hooke's law the section's energy a length gains
+    3/2 (1 - nu) EI eps kappa^2 + EA eps^3 / 2 (the cubic terms of the expansion; checked
+    against a plane-stress strip of the continuum's law in
+    tests/mechanics/test_solver.py). With eps = N / (E A(s)) and kappa = M(s) / (E I(s)),
+    M(s) = -M_a phi_a + M_b phi_b along the member, the coefficients are its integrals:
+    s11 = 18 (1 - nu) / (E b)^2 int phi_a^2 ds / t^4, s12 = -2 x that with phi_a phi_b,
+    s22 with phi_b^2, and s00 = int ds / t^2 / (2 (E b)^2). Next to the toggle, a hinge
+    bent to 3-4 % strain at 1 mm, they move A by up to 1 % (like-4 of the continuum table).
+    """
+    b, E, nu = (np.asarray(v, dtype=float) for v in (b, E, nu))
+    bend = 18.0 * (1 - nu) / (E * b) ** 2 * scale
+    return np.stack([bend * q[..., 7], -2 * bend * q[..., 8], bend * q[..., 9],
+                     q[..., 10] * scale / (2 * (E * b) ** 2)], axis=-1)
 
 
 #: Sub-intervals per profile segment in the bowing integrals: midpoint rules with 16 and 32,
@@ -379,7 +413,8 @@ class _Batch:
     d_out: np.ndarray    # (B, 2) output travel direction
     d_in: np.ndarray     # (B, 2)
     dof_weight: np.ndarray  # (B, n_dof) 1 on forces, 1 / model size on moments (residual norm)
-    bow: np.ndarray      # (B, e, 8) bowing and second-order coefficients (profile_bowing)
+    bow: np.ndarray      # (B, e, 12) bowing and second-order coefficients (profile_bowing),
+                         # then the material law's (material_coefficients)
 
     @property
     def kernel_args(self) -> tuple:
@@ -397,8 +432,9 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
     t = np.stack([m.thickness_mm[topo.flex] for m in models])
     b = np.stack([m.depth_mm[topo.flex] for m in models])
     E = np.array([m.E_MPa for m in models])[:, None]
-    G = E / (2 * (1 + np.array([m.nu for m in models])[:, None]))
-    C, bow = _member_sections(topo, models, L0, t, b, E, G)
+    nu = np.array([m.nu for m in models])[:, None]
+    G = E / (2 * (1 + nu))
+    C, bow = _member_sections(topo, models, L0, t, b, E, G, nu)
     Kn = natural_stiffness(L0, t, b, E, G, C)
     f_in = np.stack([m.input_direction for m in models])
     d_out = np.stack([m.output_direction for m in models])
@@ -409,27 +445,31 @@ def _make_batch(topo: Topology, models: list[BeamModel]) -> _Batch:
     return _Batch(X, r0, d, L0, beta0, Kn, f_in, d_out, f_in, weight, bow)
 
 
-def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G):
-    """Tip flexibility (B, e, 3, 3) and bowing and second-order coefficients (B, e, 8) of the compliant
-    members: uniform ones in closed form, those with a thickness profile (hinges with root
-    fillets) from :func:`_profile_integrals` and :func:`profile_bowing`,
-    all of a batch in one call. The profiles of one member stack across the batch; their
-    stations are scaled to the member's undeformed length."""
+def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G, nu):
+    """Tip flexibility (B, e, 3, 3), and bowing, second-order and material coefficients
+    (B, e, 12) of the compliant members: uniform ones in closed form, those with a thickness
+    profile (hinges with root fillets) from :func:`_profile_integrals`,
+    :func:`profile_bowing` and :func:`material_coefficients`, all of a batch in one call.
+    The profiles of one member stack across the batch; their stations are scaled to the
+    member's undeformed length."""
     C = cantilever_flexibility(L0, t, b, E, G)
     EI = E * b * t**3 / 12.0
+    uniform = np.zeros(L0.shape + (11,))           # a uniform member's material integrals
+    uniform[..., 7:] = L0[..., None] * np.array([1 / 3, 1 / 6, 1 / 3, 1.0]) / t[..., None] ** np.array([4, 4, 4, 2])
     bow = np.concatenate([L0[..., None] * np.array([2.0, -1.0, 2.0]) / 30.0,
                           -(L0**3 / EI)[..., None] * np.array([11.0, -13.0, 11.0]) / 12600.0,
-                          np.zeros(L0.shape + (2,))], axis=-1)
+                          np.zeros(L0.shape + (2,)),
+                          material_coefficients(uniform, b, E, nu)], axis=-1)
     first = models[0].profile_mm
     cols = [j for j, k in enumerate(topo.flex) if first[k] is not None]
     if cols:
-        _profiled_sections(topo.flex[cols], cols, models, L0, b, E, G, C, bow)
+        _profiled_sections(topo.flex[cols], cols, models, L0, b, E, G, nu, C, bow)
     # the hinges' axial compliance beyond their profiles' (geometry.topology.axial_spread)
     C[..., 0, 0] += np.stack([m.axial_spread[topo.flex] for m in models]) / (E * b)
     return C, bow
 
 
-def _profiled_sections(members, cols, models, L0, b, E, G, C, bow) -> None:
+def _profiled_sections(members, cols, models, L0, b, E, G, nu, C, bow) -> None:
     """Fill in the flexibility C and the coefficients ``bow`` (see :func:`_member_sections`)
     of the members with a thickness profile (model indices ``members``, batch columns
     ``cols``)."""
@@ -437,20 +477,23 @@ def _profiled_sections(members, cols, models, L0, b, E, G, C, bow) -> None:
     # profile is integrated once, then scaled by each design's E, G and depth
     per = _profile_sections([m.profile_mm[k] for m in models for k in members]).reshape(len(models), len(members), _N_SECTION)
     scale = (L0[:, cols] / np.array([[m.profile_mm[k][-1, 0] for k in members] for m in models]))
-    C[:, cols] = _flexibility_of(per[..., [0, 1, 2, 3, 7, 8, 9]], b[:, cols], E, G, scale)
+    q = per[..., [0, 1, 2, 3, 7, 8, 9, 15, 16, 17, 18]]  # _profile_integrals' order
+    C[:, cols] = _flexibility_of(q, b[:, cols], E, G, scale)
     bow[:, cols, :3] = per[..., 4:7] * scale[..., None]
     bow[:, cols, 3:6] = per[..., 10:13] * (12.0 / (E * b[:, cols]) * scale**3)[..., None]
-    bow[:, cols, 6:] = per[..., 13:] * (12.0 / (E * b[:, cols]) * scale**2)[..., None]
+    bow[:, cols, 6:8] = per[..., 13:15] * (12.0 / (E * b[:, cols]) * scale**2)[..., None]
+    bow[:, cols, 8:] = material_coefficients(q, b[:, cols], E, nu, scale)
 
 
 _SECTIONS: dict = {}
-_N_SECTION = 15
+_N_SECTION = 19
 
 
 def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
-    """(n, 15): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
+    """(n, 19): for each thickness profile (mm), (int ds/t, int ds/t^3, int (L-s) ds/t^3,
     int (L-s)^2 ds/t^3, bowing p11, p12, p22, int e^2 ds/t^3, int e (L-s) ds/t^3,
-    int e ds/t^3, second-order c11, c12, c22, d1, d2) of :func:`_profile_integrals` and :func:`profile_bowing`, cached by its
+    int e ds/t^3, second-order c11, c12, c22, d1, d2, and the material law's four
+    integrals) of :func:`_profile_integrals` and :func:`profile_bowing`, cached by its
     shape and bytes; the profiles not cached yet
     (every part of a Monte Carlo draw is new) are integrated together, one batch per shape
     of their station arrays."""
@@ -466,7 +509,7 @@ def _profile_sections(profiles: list[np.ndarray]) -> np.ndarray:
         q = _profile_integrals(st)
         with np.errstate(invalid="ignore", divide="ignore"):  # zero-length segments
             bow = np.nan_to_num(profile_bowing(st))
-        rows = np.column_stack([q[:, :4], bow[:, :3], q[:, 4:], bow[:, 3:]])
+        rows = np.column_stack([q[:, :4], bow[:, :3], q[:, 4:7], bow[:, 3:], q[:, 7:]])
         _SECTIONS.update(zip(group, rows))
     return np.array([_SECTIONS[k] for k in keys]).reshape(len(keys), _N_SECTION)
 

@@ -11,7 +11,10 @@ length h and reference angle beta has, at its midpoint angle phi = beta + (theta
     bending kappa = (theta_j - theta_i) / h
 
 and strain energy h/2 (EA eps^2 + k G A gamma^2 + EI kappa^2), k = 5/6 (the rectangle's shear
-correction, the inverse of the form factor 6/5), G = E / 2(1 + nu). This is exact in large
+correction, the inverse of the form factor 6/5), G = E / 2(1 + nu), plus the material law's
+cubic term, St Venant-Kirchhoff's as the continuum's, h (3/2 (1 - nu) N kappa^2 I / A +
+N^3 / (2 E^2 A^2)), N = EA eps (A, I the segment's own section, without the axial spread:
+the same law as the solver's, in the section strains). This is exact in large
 rotation; as n grows it tends to the Timoshenko beam (error O(1/n^2), one-point integration
 keeps it free of shear locking). A member with a thickness profile has segments of its mean
 axial and bending compliance per length, their nodes on the sections' centroid line (the
@@ -66,6 +69,7 @@ class Frame:
     beta: np.ndarray       # (s,) reference section angle (the chord's), rad
     rise: np.ndarray       # (s,) the centroid line's rise across the segment over h
     stiff: np.ndarray      # (s, 3) EA, kGA (N), EI (N mm^2)
+    cubic: np.ndarray      # (s, 2) the cubic term's 3/2 (1 - nu) I / A (mm^2), 1 / (2 E^2 A^2) (N^-2)
     body: np.ndarray       # (N,) body of each node
     r0: np.ndarray         # (N, 2) node offset from its body's reference node, mm
     dof: np.ndarray        # (nb, 3) unknown index of each body's ux, uy, theta; -1 if held
@@ -129,7 +133,7 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         raise ValueError(f"n_segments = {n_segments!r}: must be an integer >= 1")
     X = [np.asarray(model.nodes, dtype=float)]
     n0 = len(model.nodes)
-    seg, stiff, share, angle, rise = [], [], [], [], []
+    seg, stiff, cubic, share, angle, rise = [], [], [], [], [], []
     G = model.E_MPa / (2.0 * (1.0 + model.nu))
     rigid = np.array([k == "rigid" for k in model.member_kind])
     flex = np.flatnonzero(~rigid)
@@ -162,6 +166,8 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         area = w / (1.0 / t_axial + model.axial_spread[k] / np.linalg.norm(chord))
         stiff.append(np.column_stack([model.E_MPa * area, SHEAR_CORRECTION * G * area,
                                       model.E_MPa * w * t_bend**3 / 12.0]))
+        cubic.append(np.column_stack([1.5 * (1 - model.nu) * t_bend**3 / (12.0 * t_axial),
+                                      0.5 / (model.E_MPa * w * t_axial) ** 2]))
     X = np.concatenate(X)
     seg = np.concatenate(seg)
     N = len(X)
@@ -182,7 +188,7 @@ def discretise(model: BeamModel, n_segments: int) -> Frame:
         ref[c] = np.flatnonzero(body == c)[0]
     dof = -np.ones((nb, 3), dtype=int)
     dof[~held] = np.arange(int((~held).sum()))
-    return Frame(X, seg, np.concatenate(share), np.concatenate(angle), np.concatenate(rise), np.concatenate(stiff), body, X - X[ref[body]], dof, int((~held).sum()),
+    return Frame(X, seg, np.concatenate(share), np.concatenate(angle), np.concatenate(rise), np.concatenate(stiff), np.concatenate(cubic), body, X - X[ref[body]], dof, int((~held).sum()),
                  int(model.input_node), np.asarray(model.input_direction, float),
                  int(model.output_node), np.asarray(model.output_direction, float))
 
@@ -236,7 +242,9 @@ def _segments(frame: Frame, u: np.ndarray, th: np.ndarray, order: int):
     eps = cm1 + b * np.sin(tm) + np.sum(du * t, 1)
     gam = -np.sin(tm) + b * cm1 + np.sum(du * n, 1)
     kap = (th[j] - th[i]) / h
-    energy = 0.5 * h * (EA * eps**2 + GAk * gam**2 + EI * kap**2)
+    alpha, beta = frame.cubic.T
+    N_ = EA * eps
+    energy = 0.5 * h * (EA * eps**2 + GAk * gam**2 + EI * kap**2) + h * (alpha * N_ * kap**2 + beta * N_**3)
     if order == 0:
         return energy, None, None
     z = np.zeros_like(h)
@@ -246,8 +254,10 @@ def _segments(frame: Frame, u: np.ndarray, th: np.ndarray, order: int):
     dg = np.column_stack([-n[:, 0] / h, -n[:, 1] / h, -0.5 * one_plus_eps,
                           n[:, 0] / h, n[:, 1] / h, -0.5 * one_plus_eps])
     dk = np.column_stack([z, z, -1 / h, z, z, 1 / h])
-    N_, V_, M_ = EA * eps, GAk * gam, EI * kap       # section forces
-    grad = h[:, None] * (N_[:, None] * de + V_[:, None] * dg + M_[:, None] * dk)
+    # section forces: the axial force and moment with the cubic term's
+    Nc = N_ + EA * (alpha * kap**2 + 3 * beta * N_**2)
+    V_, Mc = GAk * gam, EI * kap + 2 * alpha * N_ * kap
+    grad = h[:, None] * (Nc[:, None] * de + V_[:, None] * dg + Mc[:, None] * dk)
     if order == 1:
         return energy, grad, None
     # second derivatives of eps, gamma: dt/dphi = n, dn/dphi = -t, dphi/dtheta = 1/2
@@ -266,9 +276,10 @@ def _segments(frame: Frame, u: np.ndarray, th: np.ndarray, order: int):
         return v[:, :, None] * v[:, None, :]
 
     hess = h[:, None, None] * (
-        EA[:, None, None] * outer(de) + N_[:, None, None] * d2e
+        (EA + 6 * beta * EA**2 * N_)[:, None, None] * outer(de) + Nc[:, None, None] * d2e
         + GAk[:, None, None] * outer(dg) + V_[:, None, None] * d2g
-        + EI[:, None, None] * outer(dk))
+        + (EI + 2 * alpha * N_)[:, None, None] * outer(dk)
+        + (2 * alpha * EA * kap)[:, None, None] * (de[:, :, None] * dk[:, None, :] + dk[:, :, None] * de[:, None, :]))
     return energy, grad, hess
 
 

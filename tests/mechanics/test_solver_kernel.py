@@ -120,13 +120,14 @@ def test_member_end_moments_follow_the_stability_functions(phi, second_order):
     toggle-band body reach -4.8), hence the bound 0.2 % (|phi| / 5)^3. Without the N^2 term
     (``second_order`` False, the element before it) the error is ~11 phi^2 / 6300 / 4:
     0.9-1.5 % at |phi| = 5, over the bound 0.5 % (phi / 5)^2 the test also checks, so it
-    tells the two apart."""
+    tells the two apart. The material law's cubic term is left out (its coefficients zero):
+    the stability functions are Hooke's law's."""
     from sensor.mechanics.solver import natural_stiffness, profile_bowing
 
     L, t, b, E = 2.0, 0.4, 6.0, 2000.0
     EI = E * b * t**3 / 12
     stations = np.column_stack([np.linspace(0, L, 9), np.full(9, t)])
-    bw = profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12 / (E * b))]
+    bw = np.r_[profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12 / (E * b))], np.zeros(4)]
     if not second_order:
         bw[3:] = 0.0
     kn = natural_stiffness(L, t, b, E, 1e9)
@@ -153,14 +154,22 @@ def test_member_forces_are_the_gradient_of_its_strain_energy():
     kernel returns are the central differences of the strain energy it returns (the strain
     energy the solver reports is the one its equilibrium minimises), and its tangent the
     central differences of those forces, each to 1e-6 relative of its largest entry (step
-    1e-6, truncation ~1e-12; the N^2 term is exaggerated 1000 times so that it shows)."""
-    from sensor.mechanics.solver import natural_stiffness, profile_bowing, profile_flexibility
+    1e-6, truncation ~1e-12; the N^2 term and the material law's cubic term are exaggerated
+    1000 times so that they show)."""
+    from sensor.mechanics.solver import (
+        _profile_integrals,
+        material_coefficients,
+        natural_stiffness,
+        profile_bowing,
+        profile_flexibility,
+    )
 
     E, b = 2000.0, 6.0
     stations = np.array([[0.0, 0.9, 0.05], [1.2, 0.3, 0.0], [3.0, 0.6, -0.02]])
     L = stations[-1, 0]
     kn = natural_stiffness(L, 0.3, b, E, E / 2.7, profile_flexibility(stations, b, E, E / 2.7))
-    bw = profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12e3 / (E * b))]
+    bw = np.r_[profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12e3 / (E * b))],
+               1e3 * material_coefficients(_profile_integrals(stations), b, E, 0.35)]
     assert np.all(bw[6:] != 0.0)
     w = K.work(2, 6)
 
@@ -177,3 +186,34 @@ def test_member_forces_are_the_gradient_of_its_strain_energy():
     hess = np.array([(energy_force_tangent(x + h * e)[1] - energy_force_tangent(x - h * e)[1]) / (2 * h)
                      for e in np.eye(6)])
     assert np.max(np.abs(hess - tangent)) <= 1e-6 * np.max(np.abs(tangent))
+
+
+@pytest.mark.parametrize("nu", [0.0, 0.35])
+def test_member_energy_carries_the_section_law_cubic_term(nu):
+    """A uniform member bent to a constant curvature kappa (ends turned -+theta / 2 from the
+    chord) and stretched to an axial strain +-eps of its axis: the part of the kernel's
+    strain energy odd in eps is the section law's, 2 L (3/2 (1 - nu) EI eps kappa^2 +
+    EA eps^3 / 2) (solver.material_coefficients; the continuum strip's in
+    tests/mechanics/test_material_law.py), to 1e-9 relative: the quadratic and the n^2
+    terms are even in eps. Strains 0.1 % and 1.5 %."""
+    from sensor.mechanics.solver import _profile_integrals, material_coefficients, natural_stiffness, profile_bowing
+
+    L, t, b, E = 3.0, 0.5, 5.0, 2000.0
+    EI, EA = E * b * t**3 / 12, E * b * t
+    G = E / (2 * (1 + nu))
+    kn = natural_stiffness(L, t, b, E, G)
+    stations = np.array([[0.0, t], [L, t]])
+    bw = np.r_[profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12 / (E * b))],
+               material_coefficients(_profile_integrals(stations), b, E, nu)]
+    w = K.work(2, 6)
+    eps, kappa = 1e-3, 0.06
+    theta = kappa * L
+    bow = (bw[0] - bw[1] + bw[2]) * theta**2 / 4
+
+    def energy(e):  # the axis stretched e: the chord by e L less the bowing
+        u = np.array([[0.0, 0.0], [e * L - bow, 0.0]])
+        return one_member(kn, bw, L, u, np.array([-theta / 2, theta / 2]), w)[0]
+
+    odd = energy(eps) - energy(-eps)
+    expected = 2 * L * (1.5 * (1 - nu) * EI * eps * kappa**2 + EA * eps**3 / 2)
+    assert odd == pytest.approx(expected, rel=1e-9)

@@ -2,8 +2,11 @@
 fitted to the continuum FE, not to the thesis; one effective parameter, delrin's modulus, is
 calibrated on the basis specimen as cut to its measured sensitivity; samples A and B are
 then predicted as cut without retuning. Measured here (sensitivity / SE / H against the
-measured column): basis 0.0 % / +11.0 % / +11.0 %, sample A +6.2 % / -13.5 % / -5.4 %,
-sample B -24.96 % / +17.3 % / +10.6 %: B's sensitivity 0.04 points inside the 25 % (0.07
+measured column): basis 0.0 % / +11.0 % / +11.0 %, sample A +6.1 % / -13.5 % / -5.4 %,
+sample B -25.11 % / +17.4 % / +10.7 %: B's sensitivity disagrees, 0.11 points outside the
+25 %, since the members carry the material law's cubic term (St Venant-Kirchhoff's, the
+continuum's: B's hinges stiffen over its stroke; solver.material_coefficients); it was
+-24.96 %, 0.04 points inside, before (0.07
 before the members' second-order term carried the oblique roots' centroid offset,
 profile_bowing's d1, d2; 0.11 points with the input's contact rule before geometry.topology.contact_compliance, 0.02
 before the hinges' axial spread, geometry.topology.axial_spread; 0.03 points outside,
@@ -29,10 +32,10 @@ def rows():
 
 def test_delrin_modulus_is_the_calibration_on_the_measured_basis():
     """The basis specimen as cut (Table 7 hinges, 0.8 mm kerf fillets) at its measured
-    0.227 mm/N gives delrin's modulus, 1.79 GPa (1789.3 MPa: the stored value to its 0.1 MPa rounding),
+    0.227 mm/N gives delrin's modulus, 1.79 GPa (1791.2 MPa: the stored value to its 0.1 MPa rounding),
     and the basis row reproduces the measurement."""
     assert calibrate_modulus() == pytest.approx(MATERIALS["delrin"].E_MPa, abs=0.1)
-    assert calibrate_modulus() == pytest.approx(1789.3, rel=1e-3)
+    assert calibrate_modulus() == pytest.approx(1791.2, rel=1e-3)
 
 
 def test_hinge_length_agrees_with_the_modulus_calibration():
@@ -61,14 +64,14 @@ def test_hinge_length_alone_cannot_make_the_cut_basis_body_as_soft_as_measured()
 
 @pytest.mark.parametrize("specimen,quantity", [
     pytest.param(s, q, marks=pytest.mark.xfail(
-        strict=True, reason="disagrees, by a hair: -25.10 % against the thesis' 0.941 mJ"))
+        strict=True, reason="disagrees, by a hair: -25.05 % against the thesis' 0.941 mJ"))
     if (s, q) == ("sample-a", "strain_energy") else (s, q)
     for s in ("sample-a", "sample-b") for q in ("amplification", "sensitivity", "strain_energy")])
 def test_predictions_within_25_percent_of_thesis_model(rows, specimen, quantity):
     """Against the thesis' analytic column (a model with sharp, rigid roots): sample A A
-    +7.9 %, sensitivity +24.9 % (24.88: inside by a hair), SE -25.1 % (a disagreement: the
-    cut part's fillets, which the thesis' sharp roots lack); sample B +3.5 %, -14.0 %,
-    -5.7 %."""
+    +7.9 %, sensitivity +24.8 % (24.79: inside by a hair), SE -25.05 % (a disagreement: the
+    cut part's fillets, which the thesis' sharp roots lack); sample B +3.6 %, -14.2 %,
+    -5.6 %."""
     r = rows[specimen]
     model = {"amplification": r.amplification, "sensitivity": r.sensitivity_mm_per_N,
              "strain_energy": r.strain_energy_mJ}[quantity]
@@ -78,7 +81,10 @@ def test_predictions_within_25_percent_of_thesis_model(rows, specimen, quantity)
 
 
 @pytest.mark.parametrize("specimen,quantity", [
-    (s, q) for s in ("basis", "sample-a", "sample-b") for q in ("sensitivity", "strain_energy", "hysteresis")])
+    pytest.param(s, q, marks=pytest.mark.xfail(
+        strict=True, reason="disagrees, by a hair: -25.11 % against the measured 0.204 mm/N"))
+    if (s, q) == ("sample-b", "sensitivity") else (s, q)
+    for s in ("basis", "sample-a", "sample-b") for q in ("sensitivity", "strain_energy", "hysteresis")])
 def test_predictions_within_25_percent_of_the_measured_specimens(rows, specimen, quantity):
     """Against the thesis' measured column (its own model is about 20 % off it); the
     numbers are in the module docstring."""
