@@ -27,6 +27,11 @@ How the thesis' method maps onto the code:
   the second-order term carries e too (profile_bowing's d1, d2; like-4's A against the frame
   model at 1 mm -0.80 -> -0.39 %; one-off runs). Splitting every hinge in two costs 41 % of
   a batch solve (stop 57, one-off).
+* The material is St Venant-Kirchhoff's, the continuum reference's: past Hooke's law each
+  member's energy carries the law's cubic term in its section strains,
+  3/2 (1 - nu) EI eps kappa^2 + EA eps^3 / 2 a length (:func:`material_coefficients`). It
+  counts only at strains of a few percent: next to the toggle by 1 mm (like-4 of the
+  continuum table: A -1.84 -> -1.04 % against the continuum at 1 mm).
 * Figure 47: the load is applied in increments and the geometry updated after each; the
   run stops when the output port reaches the target travel (the increments are taken in
   output travel, so the target is met exactly) or the input force reaches a target. Newton
@@ -177,7 +182,7 @@ def material_coefficients(q, b, E, nu, scale=1.0):
     Hooke's law the section's energy a length gains
     3/2 (1 - nu) EI eps kappa^2 + EA eps^3 / 2 (the cubic terms of the expansion; checked
     against a plane-stress strip of the continuum's law in
-    tests/mechanics/test_solver.py). With eps = N / (E A(s)) and kappa = M(s) / (E I(s)),
+    tests/mechanics/test_material_law.py). With eps = N / (E A(s)) and kappa = M(s) / (E I(s)),
     M(s) = -M_a phi_a + M_b phi_b along the member, the coefficients are its integrals:
     s11 = 18 (1 - nu) / (E b)^2 int phi_a^2 ds / t^4, s12 = -2 x that with phi_a phi_b,
     s22 with phi_b^2, and s00 = int ds / t^2 / (2 (E b)^2). Next to the toggle, a hinge
