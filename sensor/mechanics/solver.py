@@ -171,8 +171,9 @@ def _flexibility_of(q, b, E, G, scale=1.0):
 def material_coefficients(q, b, E, nu, scale=1.0):
     """(..., 4) coefficients s11, s12, s22 (1 / N^2 mm) and s00 (mm / N^2) of the material
     law's cubic strain energy of a member, n (s11 M_a^2 + s12 M_a M_b + s22 M_b^2 + s00 n^2),
-    from the section integrals q (..., 11) of :func:`_profile_integrals` (the member
-    stretched ``scale`` times along its length).
+    from its four material integrals q (..., 4): int phi_a^2 ds/t^4, int phi_a phi_b ds/t^4,
+    int phi_b^2 ds/t^4 and int ds/t^2 (the last four of :func:`_profile_integrals`; the
+    member stretched ``scale`` times along its length).
 
     The continuum reference (:mod:`sensor.mechanics.continuum`) is St Venant-Kirchhoff's:
     energy E / 2 E11^2 a volume in a plane-stress fibre, E11 = e + e^2 / 2 its Green strain,
@@ -190,8 +191,8 @@ def material_coefficients(q, b, E, nu, scale=1.0):
     """
     b, E, nu = (np.asarray(v, dtype=float) for v in (b, E, nu))
     bend = 18.0 * (1 - nu) / (E * b) ** 2 * scale
-    return np.stack([bend * q[..., 7], -2 * bend * q[..., 8], bend * q[..., 9],
-                     q[..., 10] * scale / (2 * (E * b) ** 2)], axis=-1)
+    return np.stack([bend * q[..., 0], -2 * bend * q[..., 1], bend * q[..., 2],
+                     q[..., 3] * scale / (2 * (E * b) ** 2)], axis=-1)
 
 
 #: Sub-intervals per profile segment in the bowing integrals: midpoint rules with 16 and 32,
@@ -459,8 +460,8 @@ def _member_sections(topo: Topology, models: list[BeamModel], L0, t, b, E, G, nu
     member's undeformed length."""
     C = cantilever_flexibility(L0, t, b, E, G)
     EI = E * b * t**3 / 12.0
-    uniform = np.zeros(L0.shape + (11,))           # a uniform member's material integrals
-    uniform[..., 7:] = L0[..., None] * np.array([1 / 3, 1 / 6, 1 / 3, 1.0]) / t[..., None] ** np.array([4, 4, 4, 2])
+    # a uniform member's material integrals (see material_coefficients)
+    uniform = L0[..., None] * np.array([1 / 3, 1 / 6, 1 / 3, 1.0]) / t[..., None] ** np.array([4, 4, 4, 2])
     bow = np.concatenate([L0[..., None] * np.array([2.0, -1.0, 2.0]) / 30.0,
                           -(L0**3 / EI)[..., None] * np.array([11.0, -13.0, 11.0]) / 12600.0,
                           np.zeros(L0.shape + (2,)),
@@ -487,7 +488,7 @@ def _profiled_sections(members, cols, models, L0, b, E, G, nu, C, bow) -> None:
     bow[:, cols, :3] = per[..., 4:7] * scale[..., None]
     bow[:, cols, 3:6] = per[..., 10:13] * (12.0 / (E * b[:, cols]) * scale**3)[..., None]
     bow[:, cols, 6:8] = per[..., 13:15] * (12.0 / (E * b[:, cols]) * scale**2)[..., None]
-    bow[:, cols, 8:] = material_coefficients(q, b[:, cols], E, nu, scale)
+    bow[:, cols, 8:] = material_coefficients(q[..., 7:], b[:, cols], E, nu, scale)
 
 
 _SECTIONS: dict = {}

@@ -169,7 +169,7 @@ def test_member_forces_are_the_gradient_of_its_strain_energy():
     L = stations[-1, 0]
     kn = natural_stiffness(L, 0.3, b, E, E / 2.7, profile_flexibility(stations, b, E, E / 2.7))
     bw = np.r_[profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12e3 / (E * b))],
-               1e3 * material_coefficients(_profile_integrals(stations), b, E, 0.35)]
+               1e3 * material_coefficients(_profile_integrals(stations)[7:], b, E, 0.35)]
     assert np.all(bw[6:] != 0.0)
     w = K.work(2, 6)
 
@@ -204,7 +204,7 @@ def test_member_energy_carries_the_section_law_cubic_term(nu):
     kn = natural_stiffness(L, t, b, E, G)
     stations = np.array([[0.0, t], [L, t]])
     bw = np.r_[profile_bowing(stations) * np.r_[1, 1, 1, np.full(5, 12 / (E * b))],
-               material_coefficients(_profile_integrals(stations), b, E, nu)]
+               material_coefficients(_profile_integrals(stations)[7:], b, E, nu)]
     w = K.work(2, 6)
     eps, kappa = 1e-3, 0.06
     theta = kappa * L
